@@ -1,0 +1,171 @@
+"""The collision-course flag Ω (11), Remark 4, and the evasive offset u^o of Section 3.
+
+Obstacles are circles (spheres in 3-D): centres (m, dim) and radii (m,) in metres. ``heading`` is
+the agent's filtered velocity (m/s); the ray of (11) starts at the agent and runs along it.
+The guard radius of obstacle j is r_j + ρ, ρ the safety margin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from agent.formation import FloatArray
+
+_STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
+
+
+def ray_distance(origin: FloatArray, heading: FloatArray, centre: FloatArray) -> float:
+    """d_ij: distance from ``centre`` to the ray from ``origin`` along ``heading``, m.
+
+    Remark 4: inf (the paper's D̄) unless the obstacle is strictly ahead (an acute angle
+    between the ray and the line to the obstacle), and inf for an agent that does not move.
+    """
+    speed = float(np.linalg.norm(heading))
+    if speed < _STILL:
+        return math.inf
+    unit = heading / speed
+    to_centre = centre - origin
+    along = float(to_centre @ unit)
+    if along <= 0.0:
+        return math.inf
+    return float(np.linalg.norm(to_centre - along * unit))
+
+
+def _left_of(unit: FloatArray) -> FloatArray:
+    """A unit vector perpendicular to ``unit``, chosen deterministically (left in the plane)."""
+    if unit.shape[0] == 2:
+        return np.array([-unit[1], unit[0]])
+    axis = np.zeros(unit.shape[0])
+    axis[int(np.argmin(np.abs(unit)))] = 1.0
+    side = np.cross(axis, unit) if unit.shape[0] == 3 else axis - (axis @ unit) * unit
+    return np.asarray(side / np.linalg.norm(side), dtype=np.float64)
+
+
+def evasive_offset(
+    origin: FloatArray,
+    heading: FloatArray,
+    centre: FloatArray,
+    radius: float,
+    *,
+    safety_margin: float,
+    epsilon: float,
+) -> FloatArray:
+    """u^o: perpendicular to ``heading``, from the obstacle towards the ray, (dim,) in m.
+
+    The paper's magnitude r_j - d_ij would leave the new path touching the obstacle. Here it is
+    r_j + ρ + ε - d_ij: the shifted ray passes at r_j + ρ + ε, exactly where (11) stops firing,
+    so ε covers the chattering band and ρ is the clearance kept. Zero if the ray already passes
+    that far out. A ray through the centre (d_ij = 0) is pushed to the left of the heading.
+    """
+    unit = heading / float(np.linalg.norm(heading))
+    to_centre = centre - origin
+    foot = origin + float(to_centre @ unit) * unit
+    away = foot - centre
+    d = float(np.linalg.norm(away))
+    direction = away / d if d > 1e-12 else _left_of(unit)
+    magnitude = max(0.0, radius + safety_margin + epsilon - d)
+    return np.asarray(magnitude * direction, dtype=np.float64)
+
+
+@dataclass(frozen=True, slots=True)
+class Evasion:
+    """An evasive episode: the obstacle evaded and u^o, set at τ_i (grown by ``_ratchet``)."""
+
+    obstacle_id: int
+    centre: FloatArray
+    radius: float
+    offset: FloatArray
+
+
+def _ratchet(held: Evasion, position: FloatArray, heading: FloatArray, clearance: float) -> Evasion:
+    """Grow u^o (never shrink it) while the ray still passes within r_j + ρ + ε of the obstacle.
+
+    u^o is fixed at τ_i from the heading of that instant, which the sign term's chattering blurs;
+    re-measuring the ray while the episode lasts corrects a misjudged τ_i, along u^o's direction.
+    """
+    short = held.radius + clearance - ray_distance(position, heading, held.centre)
+    if not short > 0:
+        return held
+    size = float(np.linalg.norm(held.offset))
+    if size == 0.0:
+        return held
+    grown = held.offset * ((size + short) / size)
+    return Evasion(held.obstacle_id, held.centre, held.radius, grown)
+
+
+def _triggers(
+    position: FloatArray,
+    heading: FloatArray,
+    centres: FloatArray,
+    radii: FloatArray,
+    *,
+    trigger_radius: float,
+    safety_margin: float,
+    epsilon: float,
+) -> list[tuple[float, int]]:
+    """(distance to centre, index) of every obstacle that fires the first clause of (11)."""
+    hits = []
+    for k in range(centres.shape[0]):
+        dist = float(np.linalg.norm(position - centres[k]))
+        if dist > trigger_radius:
+            continue
+        if ray_distance(position, heading, centres[k]) <= radii[k] + safety_margin + epsilon:
+            hits.append((dist, k))
+    return sorted(hits)
+
+
+def collision_course(
+    position: FloatArray,
+    heading: FloatArray,
+    obstacle_ids: tuple[int, ...],
+    centres: FloatArray,
+    radii: FloatArray,
+    held: Evasion | None,
+    *,
+    trigger_radius: float,
+    sensing_radius: float,
+    safety_margin: float,
+    epsilon: float,
+) -> Evasion | None:
+    """Ω_i(t) of (11): the evasion in force this tick, or None for Ω_i = 0.
+
+    Fires when some obstacle within d̄ of the agent lies within r_j + ρ + ε of its ray. An
+    episode, once started, holds (our reading of the second clause of (11)) while its obstacle
+    is sensed (within d, not d̄: chattering at the d̄ boundary must not flicker Ω) and the
+    agent has not yet passed the obstacle's guard circle r_j + ρ along its
+    current heading. A newly
+    firing obstacle nearer than the held one starts a new episode (new τ_i, new u^o). While an
+    episode holds, u^o only grows if the ray still passes too close (see ``_ratchet``).
+    """
+    hits = _triggers(
+        position,
+        heading,
+        centres,
+        radii,
+        trigger_radius=trigger_radius,
+        safety_margin=safety_margin,
+        epsilon=epsilon,
+    )
+    if held is not None:
+        dist = float(np.linalg.norm(position - held.centre))
+        speed = float(np.linalg.norm(heading))
+        along = float((position - held.centre) @ heading) / speed if speed > _STILL else 0.0
+        if dist <= sensing_radius and along < held.radius + safety_margin:
+            nearer = [k for d, k in hits if d < dist and obstacle_ids[k] != held.obstacle_id]
+            if not nearer:
+                return _ratchet(held, position, heading, safety_margin + epsilon)
+    if not hits:
+        return None
+    _, k = hits[0]
+    offset = evasive_offset(
+        position, heading, centres[k], float(radii[k]), safety_margin=safety_margin, epsilon=epsilon
+    )
+    return Evasion(
+        obstacle_id=obstacle_ids[k],
+        centre=centres[k].copy(),
+        radius=float(radii[k]),
+        offset=offset,
+    )

@@ -1,0 +1,84 @@
+"""Algorithm 1 (max-consensus on the contraction factor σ) and the bid an agent makes.
+
+Timing, which the paper leaves open: rounds run one per tick in fixed epochs of L_G ticks. At the
+first tick of an epoch every agent sets its value to its own bid; each tick it keeps the maximum
+of its value and its neighbours' (one round); after L_G rounds (Proposition 1) all hold the same
+maximum, and every agent applies it from the first tick of the next epoch, the same tick for all.
+A formation that no longer sees a narrow passage bids 1 and so expands again one epoch later.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from agent.formation import FloatArray
+
+# A passage is only entered if the heading crosses the gap at least this steeply:
+# cos of the angle between the heading and the line through the two centres.
+_MAX_ALONG_COS = np.cos(np.deg2rad(30.0))
+
+
+def epoch_start(tick: int, rounds: int) -> bool:
+    """True on the first tick of an epoch of ``rounds`` ticks."""
+    return tick % max(rounds, 1) == 0
+
+
+def consensus_round(own: float, received: Iterable[float]) -> float:
+    """One round of Algorithm 1: σ^ℓ ← max over N_ℓ ∪ {ℓ}."""
+    return max([own, *received])
+
+
+def passage_bid(
+    position: FloatArray,
+    heading: FloatArray,
+    centres: FloatArray,
+    radii: FloatArray,
+    *,
+    formation_radius: float,
+    slot_shift: FloatArray,
+    safety_margin: float,
+    epsilon: float,
+    sigma_max: float,
+) -> float:
+    """σ^i: the contraction this agent asks for, ≥ 1 (1 = no narrow passage in its way).
+
+    A pair of sensed obstacles j, k is a narrow passage when its free width
+    w = ‖c_j - c_k‖ - r_j - r_k is less than the formation's diameter 2·formation_radius and the
+    agent heads through the gap rather than along it. The agent bids for it until both its own
+    position and ``position + slot_shift`` (where its slot moves once the formation expands
+    again) are beyond the far side of the pair's guard circles, so expansion never pulls an
+    agent back into the passage. The leader goes through a passage's middle and the formation is
+    scaled about the leader, so it fits when formation_radius / σ ≤ w/2 - ρ - ε. A gap with no
+    usable width bids ``sigma_max``.
+    """
+    speed = float(np.linalg.norm(heading))
+    if speed < 1e-9 or formation_radius <= 0.0:
+        return 1.0
+    unit = heading / speed
+    bid = 1.0
+    m = centres.shape[0]
+    for j in range(m):
+        for k in range(j + 1, m):
+            span = centres[k] - centres[j]
+            length = float(np.linalg.norm(span))
+            gap = length - radii[j] - radii[k]
+            if gap >= 2.0 * formation_radius or length == 0.0:
+                continue  # the whole formation fits, or degenerate
+            across = span / length
+            if abs(float(unit @ across)) > _MAX_ALONG_COS:
+                continue  # moving along the pair, not through it
+            through = unit - float(unit @ across) * across
+            through /= float(np.linalg.norm(through))
+            mid = (centres[j] + centres[k]) / 2.0
+            far = max(radii[j], radii[k]) + safety_margin + epsilon
+            ahead = min(
+                float((position - mid) @ through), float((position + slot_shift - mid) @ through)
+            )
+            if ahead >= far:
+                continue  # through, and so is the slot it will expand to
+            usable = gap - 2.0 * (safety_margin + epsilon)
+            need = sigma_max if usable <= 0 else 2.0 * formation_radius / usable
+            bid = max(bid, min(sigma_max, need))
+    return bid

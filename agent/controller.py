@@ -1,0 +1,194 @@
+"""One agent's controller: Algorithm 2 around law (1)/(12), with Algorithm 1 running alongside.
+
+A tick has two halves, because neighbours must hear each other before anyone moves:
+
+1. ``announce(memory, sensing)``: from the world's sensing, decide Ω_i and the σ bid and produce
+   the state this agent tells its neighbours.
+2. ``act(memory, sensing, neighbour_states)``: with the neighbours' states of the same tick, drop
+   the edges to evading neighbours, compute v_i, take one consensus round, produce the command.
+
+Both are pure: memory in, memory out. The agent process and the reference simulator call exactly
+these two methods, which is why a lockstep distributed run can equal the simulator bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from agent.collision import Evasion, collision_course
+from agent.consensus import consensus_round, epoch_start, passage_bid
+from agent.errors import ConfigError
+from agent.formation import (
+    FloatArray,
+    consensus_error,
+    evasive_error,
+    shaped,
+    velocity,
+)
+from bus.path import leader_velocity
+from bus.types import AgentConfig, AgentState, Command, Sensing
+
+
+@dataclass(frozen=True, slots=True)
+class Memory:
+    """What an agent carries from one tick to the next.
+
+    heading : (dim,) m/s, low-pass filtered own velocity; the ray of (11) runs along it.
+    evasion : the evasive episode in force (Ω_i = 1), or None.
+    bid : this agent's current value in Algorithm 1.
+    sigma_consensus : the factor agreed in the last finished epoch, applied now.
+    """
+
+    heading: FloatArray
+    evasion: Evasion | None
+    bid: float
+    sigma_consensus: float
+
+
+class Controller:
+    """The control laws of one agent, parameterised once by its :class:`AgentConfig`."""
+
+    def __init__(self, config: AgentConfig) -> None:
+        _validate(config)
+        self.config = config
+        self.params = config.params
+        self.offset = np.asarray(config.offset, dtype=np.float64)
+        self.neighbour_offsets = np.asarray(config.neighbour_offsets, dtype=np.float64).reshape(
+            len(config.senses), config.dim
+        )
+        tau = self.params.heading_tau
+        self.smoothing = 1.0 if tau <= 0 else 1.0 - math.exp(-config.dt / tau)
+        self.listens_to = tuple(sorted(set(config.senses) | set(config.talks_to)))
+
+    def start(self) -> Memory:
+        """The memory before tick 0: at rest, not evading, bidding 1, unscaled."""
+        return Memory(heading=np.zeros(self.config.dim), evasion=None, bid=1.0, sigma_consensus=1.0)
+
+    def shape(self, tick: int, sigma_consensus: float) -> tuple[float, float]:
+        """(σ, θ) applied at ``tick``: the demanded reshape times the agreed contraction."""
+        scale, rotate = 1.0, 0.0
+        for r in self.config.reshapes:
+            if r.tick <= tick:
+                scale, rotate = r.scale, r.rotate
+        return scale * sigma_consensus, rotate
+
+    def announce(self, memory: Memory, sensing: Sensing) -> tuple[Memory, AgentState]:
+        """First half of a tick: Ω_i (11) and the σ bid; returns the state for the neighbours."""
+        p = self.params
+        tick = sensing.tick
+        position = np.asarray(sensing.position, dtype=np.float64)
+        centres = np.asarray(sensing.obstacle_centres, dtype=np.float64).reshape(
+            len(sensing.obstacle_ids), self.config.dim
+        )
+        radii = np.asarray(sensing.obstacle_radii, dtype=np.float64)
+        bid, agreed = memory.bid, memory.sigma_consensus
+        if epoch_start(tick, p.rounds):
+            if tick > 0:
+                agreed = memory.bid
+            demanded, theta = self.shape(tick, 1.0)
+            slot_shift = shaped(self.offset, sigma=demanded, theta=theta) - shaped(
+                self.offset, sigma=demanded * memory.sigma_consensus, theta=theta
+            )
+            bid = passage_bid(
+                position,
+                memory.heading,
+                centres,
+                radii,
+                formation_radius=self.config.formation_radius / demanded,
+                slot_shift=slot_shift,
+                safety_margin=p.safety_margin,
+                epsilon=p.epsilon,
+                sigma_max=p.sigma_max,
+            )
+        evasion = None
+        if not self.config.is_leader:
+            evasion = collision_course(
+                position,
+                memory.heading,
+                sensing.obstacle_ids,
+                centres,
+                radii,
+                memory.evasion,
+                trigger_radius=p.trigger_radius,
+                sensing_radius=p.sensing_radius,
+                safety_margin=p.safety_margin,
+                epsilon=p.epsilon,
+            )
+        memory = replace(memory, evasion=evasion, bid=bid, sigma_consensus=agreed)
+        sigma, theta = self.shape(tick, agreed)
+        state = AgentState(
+            agent_id=self.config.agent_id,
+            tick=tick,
+            position=sensing.position,
+            omega=evasion is not None,
+            bid=bid,
+            sigma=sigma,
+            theta=theta,
+        )
+        return memory, state
+
+    def act(
+        self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]
+    ) -> tuple[Memory, Command]:
+        """Second half of a tick: v_i from (1) or (12) with Algorithm 2's edge dropping.
+
+        ``neighbours`` maps id to the state announced this tick; a neighbour that is missing
+        (gone) or evading (Ω_j = 1) is not followed this tick.
+        """
+        cfg = self.config
+        if cfg.path is not None:
+            v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
+        else:
+            v = self._follow(memory, sensing, neighbours)
+        bids = [neighbours[j].bid for j in cfg.talks_to if j in neighbours]
+        memory = replace(
+            memory,
+            heading=memory.heading + self.smoothing * (v - memory.heading),
+            bid=consensus_round(memory.bid, bids),
+        )
+        command = Command(
+            agent_id=cfg.agent_id, tick=sensing.tick, velocity=tuple(float(c) for c in v)
+        )
+        return memory, command
+
+    def _follow(
+        self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]
+    ) -> FloatArray:
+        cfg, p = self.config, self.params
+        keep = [k for k, j in enumerate(cfg.senses) if j in neighbours and not neighbours[j].omega]
+        sigma, theta = self.shape(sensing.tick, memory.sigma_consensus)
+        positions = np.asarray(
+            [neighbours[cfg.senses[k]].position for k in keep], dtype=np.float64
+        ).reshape(len(keep), cfg.dim)
+        error = consensus_error(
+            np.asarray(sensing.position, dtype=np.float64),
+            shaped(self.offset, sigma=sigma, theta=theta),
+            positions,
+            shaped(self.neighbour_offsets[keep], sigma=sigma, theta=theta),
+        )
+        if memory.evasion is not None:
+            error = evasive_error(error, len(keep), memory.evasion.offset)
+        return velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)
+
+
+def _validate(config: AgentConfig) -> None:
+    p = config.params
+    if config.dim not in (2, 3):
+        raise ConfigError("dim", f"must be 2 or 3, got {config.dim}")
+    if len(config.offset) != config.dim:
+        raise ConfigError("offset", f"has {len(config.offset)} coordinates, dim is {config.dim}")
+    if len(config.neighbour_offsets) != len(config.senses):
+        raise ConfigError("neighbour_offsets", "needs one offset per sensed neighbour")
+    if any(len(o) != config.dim for o in config.neighbour_offsets):
+        raise ConfigError("neighbour_offsets", f"every offset needs {config.dim} coordinates")
+    if config.dt <= 0:
+        raise ConfigError("dt", f"must be > 0 s, got {config.dt}")
+    for name in ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max"):
+        if not getattr(p, name) > 0:
+            raise ConfigError(f"params.{name}", f"must be > 0, got {getattr(p, name)}")
+    if p.rounds < 1:
+        raise ConfigError("params.rounds", f"must be ≥ 1 (the graph diameter), got {p.rounds}")

@@ -1,0 +1,1 @@
+"""The wire contract shared by agents, the world and the tools."""

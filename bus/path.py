@@ -1,0 +1,62 @@
+"""The leader's motion ẋ_1 = f(t): waypoints along straight legs, or the paper's sinusoid.
+
+Only the leader agent moves along its path, but the world evaluates it too (Assumption 4 and the
+|f| < β check at load, f_max for the convergence bound), so it lives in the shared package.
+
+The leader moves open loop: the command of tick k is the displacement of the path over the tick
+divided by dt, so an Euler step lands on the path and |f| never exceeds the path's speed (corners
+are cut within one tick, never overshot).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from bus.geometry import FloatArray
+from bus.types import PathSpec, Sinusoid, Waypoints
+
+
+def path_position(path: PathSpec, t: float) -> FloatArray:
+    """p(t), m: where the leader's path is at time t ≥ 0 s."""
+    if isinstance(path, Sinusoid):
+        start = np.asarray(path.start, dtype=np.float64)
+        direction = np.asarray(path.direction, dtype=np.float64)
+        normal = np.asarray(path.normal, dtype=np.float64)
+        wave = path.amplitude * math.sin(2.0 * math.pi * t / path.period)
+        return start + direction * (path.speed * t) + normal * wave
+    return _along_waypoints(path, path.speed * t)
+
+
+def _along_waypoints(path: Waypoints, distance: float) -> FloatArray:
+    points = np.asarray(path.points, dtype=np.float64)
+    for a, b in itertools.pairwise(points):
+        leg = float(np.linalg.norm(b - a))
+        if distance <= leg:
+            out = a + (b - a) * (distance / leg) if leg > 0 else a.copy()
+            return np.asarray(out, dtype=np.float64)
+        distance -= leg
+    return np.asarray(points[-1].copy(), dtype=np.float64)
+
+
+def leader_velocity(path: PathSpec, tick: int, dt: float) -> FloatArray:
+    """f over tick k, m/s: (p((k+1)·dt) - p(k·dt)) / dt."""
+    return (path_position(path, (tick + 1) * dt) - path_position(path, tick * dt)) / dt
+
+
+def peak_speed(path: PathSpec) -> FloatArray:
+    """f_max per coordinate, m/s: the largest |f_c(t)| over all t (for |f| < β and the bounds)."""
+    if isinstance(path, Sinusoid):
+        direction = np.abs(np.asarray(path.direction, dtype=np.float64))
+        normal = np.abs(np.asarray(path.normal, dtype=np.float64))
+        wave = 2.0 * math.pi * path.amplitude / path.period
+        return np.asarray(direction * path.speed + normal * wave, dtype=np.float64)
+    points = np.asarray(path.points, dtype=np.float64)
+    peak = np.zeros(points.shape[1])
+    for a, b in itertools.pairwise(points):
+        leg = float(np.linalg.norm(b - a))
+        if leg > 0:
+            peak = np.maximum(peak, np.abs(b - a) / leg * path.speed)
+    return peak

@@ -1,0 +1,1 @@
+"""Command line, reference simulator, logger and reports."""

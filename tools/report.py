@@ -1,0 +1,43 @@
+"""How a run's summary is shown to a person."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def _fmt(value: Any, unit: str = "", digits: int = 3) -> str:
+    if value is None:
+        return "—"
+    if isinstance(value, float):
+        return f"{value:.{digits}f}{unit}"
+    return f"{value}{unit}"
+
+
+def render_summary(summary: dict[str, Any]) -> str:
+    """A short, aligned, human-readable block of the figures that matter."""
+    conv = summary["convergence_time"]
+    bound = summary["convergence_bound"]
+    within = conv is not None and conv <= bound
+    rows = [
+        (
+            "scenario",
+            f"{summary['scenario']}  ({summary['agents']} agents, "
+            f"{summary['steps']} steps of {summary['dt']} s)",
+        ),
+        ("collisions", _fmt(summary["collisions"])),
+        ("min clearance", _fmt(summary["min_clearance"], " m")),
+        ("min inter-agent distance", _fmt(summary["min_interagent_distance"], " m")),
+        (
+            "convergence",
+            f"{_fmt(conv, ' s', 2)} (bound {_fmt(bound, ' s', 2)}, "
+            f"tolerance {_fmt(summary['tolerance'], ' m')}"
+            f"{', within bound' if within else ''})",
+        ),
+        ("final formation error", _fmt(summary["final_formation_error"], " m")),
+        ("agreed σ", f"{_fmt(summary['sigma'], '', 3)} (rounds {_fmt(summary['sigma_rounds'])})"),
+        ("Ω episodes", _fmt(summary["omega_episodes"])),
+    ]
+    if summary.get("assumption2_violations"):
+        rows.append(("Assumption 2 broken", f"{summary['assumption2_violations']} ticks"))
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)

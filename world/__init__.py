@@ -1,0 +1,1 @@
+"""The world: scenarios, kinematics, obstacle sensing and ground-truth metrics."""

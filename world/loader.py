@@ -1,0 +1,321 @@
+"""Scenario files: YAML in, a validated :class:`~world.scenario.Scenario` out.
+
+Every problem raises :class:`~world.errors.ScenarioError` naming the field (``control.beta``,
+``agents[2].offset``); a broken paper assumption raises :class:`~world.errors.AssumptionError`.
+Unknown fields are refused, so a typo never silently falls back to a default. The file format is
+documented in docs/scenarios.md.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from bus.types import PathSpec, Reshape, Sinusoid, Vector, Waypoints
+from world.assumptions import check_assumptions
+from world.errors import ScenarioError
+from world.scenario import AgentSpec, Control, Obstacle, Scenario
+
+_TOP = {
+    "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
+    "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape",
+}  # fmt: skip
+_CONTROL_DEFAULTS: dict[str, float] = {
+    "alpha": 1.0,
+    "beta": 2.0,
+    "sensing_radius": 5.0,
+    "trigger_radius": 4.0,
+    "epsilon": 0.05,
+    "safety_margin": 0.2,
+    "heading_tau": 0.5,
+    "sigma_max": 8.0,
+    "boundary_layer": 0.0,
+}
+
+
+def builtin_names() -> list[str]:
+    """Names of the scenarios shipped with shoal."""
+    files = resources.files("world.scenarios")
+    return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".yaml"))
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """A built-in scenario by name, or a scenario file by path."""
+    path = Path(name_or_path)
+    if str(name_or_path) in builtin_names() and not path.exists():
+        text = resources.files("world.scenarios").joinpath(f"{name_or_path}.yaml").read_text()
+        return parse_scenario(text)
+    if not path.is_file():
+        known = ", ".join(builtin_names())
+        raise ScenarioError(
+            "scenario", f"no file {str(path)!r} and no built-in of that name ({known})"
+        )
+    return parse_scenario(path.read_text(encoding="utf-8"), default_name=path.stem)
+
+
+def parse_scenario(text: str, *, default_name: str = "scenario") -> Scenario:
+    """Parse and validate YAML text."""
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ScenarioError("yaml", f"not valid YAML: {exc}") from None
+    if not isinstance(data, Mapping):
+        raise ScenarioError("scenario", "the file must hold a mapping of fields")
+    return scenario_from_dict(data, source=text, default_name=default_name)
+
+
+def scenario_from_dict(
+    data: Mapping[str, Any], *, source: str = "", default_name: str = "scenario"
+) -> Scenario:
+    """Validate a mapping (as parsed from YAML) into a Scenario."""
+    _no_unknown(data, _TOP, "")
+    dim = _integer(data.get("dim", 2), "dim")
+    if dim not in (2, 3):
+        raise ScenarioError("dim", f"must be 2 or 3, got {dim}")
+    dt = _positive(data.get("dt", 0.01), "dt")
+    duration = _positive(data.get("duration", 20.0), "duration")
+    if duration < dt:
+        raise ScenarioError("duration", f"{duration} s is shorter than one step dt = {dt} s")
+    seed = _integer(data.get("seed", 0), "seed")
+    path = _path(data.get("leader"), dim)
+    agents = _agents(data.get("agents"), dim, path, seed, data.get("initial_noise", 0.0))
+    directed, edges = _graph(data.get("graph"), len(agents))
+    scenario = Scenario(
+        name=_string(data.get("name", default_name), "name"),
+        description=_string(data.get("description", ""), "description"),
+        dim=dim,
+        dt=dt,
+        duration=duration,
+        seed=seed,
+        agents=agents,
+        directed=directed,
+        edges=edges,
+        path=path,
+        obstacles=_obstacles(data.get("obstacles", []), dim),
+        reshapes=_reshapes(data.get("reshape", []), dt),
+        control=_control(data.get("control", {})),
+        agent_radius=_non_negative(data.get("agent_radius", 0.05), "agent_radius"),
+        tolerance_factor=_positive(data.get("tolerance_factor", 10.0), "tolerance_factor"),
+        source=source,
+    )
+    check_assumptions(scenario)
+    return scenario
+
+
+# -- fields -------------------------------------------------------------------------------------
+
+
+def _no_unknown(data: Mapping[str, Any], known: set[str], where: str) -> None:
+    for key in data:
+        if key not in known:
+            field = f"{where}.{key}" if where else str(key)
+            raise ScenarioError(
+                field, f"unknown field (expected one of {', '.join(sorted(known))})"
+            )
+
+
+def _number(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ScenarioError(field, f"must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ScenarioError(field, f"must be finite, got {value!r}")
+    return float(value)
+
+
+def _positive(value: Any, field: str) -> float:
+    x = _number(value, field)
+    if x <= 0:
+        raise ScenarioError(field, f"must be > 0, got {x}")
+    return x
+
+
+def _non_negative(value: Any, field: str) -> float:
+    x = _number(value, field)
+    if x < 0:
+        raise ScenarioError(field, f"must be ≥ 0, got {x}")
+    return x
+
+
+def _integer(value: Any, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ScenarioError(field, f"must be an integer, got {value!r}")
+    return value
+
+
+def _string(value: Any, field: str) -> str:
+    if not isinstance(value, str):
+        raise ScenarioError(field, f"must be a string, got {value!r}")
+    return value
+
+
+def _vector(value: Any, field: str, dim: int) -> Vector:
+    if not isinstance(value, list | tuple) or len(value) != dim:
+        raise ScenarioError(field, f"must be a list of {dim} numbers, got {value!r}")
+    return tuple(_number(v, f"{field}[{k}]") for k, v in enumerate(value))
+
+
+def _mapping(value: Any, field: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ScenarioError(field, f"must be a mapping, got {value!r}")
+    return value
+
+
+def _list(value: Any, field: str) -> list[Any]:
+    if not isinstance(value, list):
+        raise ScenarioError(field, f"must be a list, got {value!r}")
+    return value
+
+
+# -- sections -----------------------------------------------------------------------------------
+
+
+def _control(value: Any) -> Control:
+    data = _mapping(value, "control")
+    _no_unknown(data, set(_CONTROL_DEFAULTS), "control")
+    merged = {**_CONTROL_DEFAULTS, **data}
+    for key in ("alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "sigma_max"):
+        _positive(merged[key], f"control.{key}")
+    for key in ("safety_margin", "heading_tau", "boundary_layer"):
+        _non_negative(merged[key], f"control.{key}")
+    c = Control(**{k: float(v) for k, v in merged.items()})
+    if c.trigger_radius >= c.sensing_radius:
+        raise ScenarioError(
+            "control.trigger_radius",
+            f"d̄ = {c.trigger_radius} must be < the sensing radius d = {c.sensing_radius} (11)",
+        )
+    if c.sigma_max < 1:
+        raise ScenarioError("control.sigma_max", f"must be ≥ 1, got {c.sigma_max}")
+    return c
+
+
+def _path(value: Any, dim: int) -> PathSpec:
+    data = _mapping(value, "leader")
+    if ("waypoints" in data) == ("sinusoid" in data):
+        raise ScenarioError(
+            "leader", "give exactly one of 'waypoints' (with 'speed') or 'sinusoid'"
+        )
+    if "waypoints" in data:
+        _no_unknown(data, {"waypoints", "speed"}, "leader")
+        raw = _list(data["waypoints"], "leader.waypoints")
+        if len(raw) < 1:
+            raise ScenarioError("leader.waypoints", "needs at least one waypoint")
+        points = tuple(_vector(p, f"leader.waypoints[{k}]", dim) for k, p in enumerate(raw))
+        return Waypoints(points=points, speed=_positive(data.get("speed"), "leader.speed"))
+    _no_unknown(data, {"sinusoid"}, "leader")
+    s = _mapping(data["sinusoid"], "leader.sinusoid")
+    _no_unknown(
+        s, {"start", "direction", "normal", "speed", "amplitude", "period"}, "leader.sinusoid"
+    )
+    where = "leader.sinusoid"
+    direction = np.asarray(_vector(s.get("direction"), f"{where}.direction", dim))
+    if np.linalg.norm(direction) == 0:
+        raise ScenarioError(f"{where}.direction", "must not be zero")
+    direction = direction / np.linalg.norm(direction)
+    if "normal" in s:
+        normal = np.asarray(_vector(s["normal"], f"{where}.normal", dim))
+    else:
+        normal = np.zeros(dim)
+        normal[:2] = (-direction[1], direction[0])
+    normal = normal - (normal @ direction) * direction
+    if np.linalg.norm(normal) < 1e-9:
+        raise ScenarioError(f"{where}.normal", "must not be parallel to the direction")
+    normal = normal / np.linalg.norm(normal)
+    return Sinusoid(
+        start=_vector(s.get("start"), f"{where}.start", dim),
+        direction=tuple(float(x) for x in direction),
+        normal=tuple(float(x) for x in normal),
+        speed=_non_negative(s.get("speed"), f"{where}.speed"),
+        amplitude=_non_negative(s.get("amplitude"), f"{where}.amplitude"),
+        period=_positive(s.get("period"), f"{where}.period"),
+    )
+
+
+def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tuple[AgentSpec, ...]:
+    raw = _list(value, "agents")
+    if len(raw) < 2:
+        raise ScenarioError("agents", "needs a leader and at least one follower")
+    spread = _non_negative(noise, "initial_noise")
+    start = np.asarray(path.points[0] if isinstance(path, Waypoints) else path.start)
+    rng = np.random.default_rng(seed)
+    agents = []
+    for k, item in enumerate(raw):
+        where = f"agents[{k}]"
+        entry = _mapping(item, where)
+        _no_unknown(entry, {"offset", "initial"}, where)
+        offset = _vector(entry.get("offset"), f"{where}.offset", dim)
+        jitter = rng.uniform(-spread, spread, size=dim)  # drawn for every agent: stable streams
+        if k == 0:
+            if any(offset):
+                raise ScenarioError(f"{where}.offset", "the leader (agent 1) has offset zero")
+            initial = tuple(float(x) for x in start)
+            if "initial" in entry and not np.allclose(
+                _vector(entry["initial"], f"{where}.initial", dim), start
+            ):
+                raise ScenarioError(f"{where}.initial", "the leader starts where its path starts")
+        elif "initial" in entry:
+            initial = _vector(entry["initial"], f"{where}.initial", dim)
+        else:
+            initial = tuple(float(x) for x in start + np.asarray(offset) + jitter)
+        agents.append(AgentSpec(agent_id=k + 1, initial=initial, offset=offset))
+    return tuple(agents)
+
+
+def _graph(value: Any, n: int) -> tuple[bool, tuple[tuple[int, int], ...]]:
+    data = _mapping(value, "graph")
+    _no_unknown(data, {"directed", "edges"}, "graph")
+    directed = data.get("directed", False)
+    if not isinstance(directed, bool):
+        raise ScenarioError("graph.directed", f"must be true or false, got {directed!r}")
+    edges = []
+    for k, e in enumerate(_list(data.get("edges"), "graph.edges")):
+        where = f"graph.edges[{k}]"
+        if not isinstance(e, list | tuple) or len(e) != 2:
+            raise ScenarioError(where, f"must be a pair of agent ids, got {e!r}")
+        i, j = (_integer(x, where) for x in e)
+        for x in (i, j):
+            if not 1 <= x <= n:
+                raise ScenarioError(where, f"agent {x} does not exist (ids are 1..{n})")
+        if i == j:
+            raise ScenarioError(where, f"a self-loop on agent {i}")
+        edges.append((i, j))
+    return directed, tuple(edges)
+
+
+def _obstacles(value: Any, dim: int) -> tuple[Obstacle, ...]:
+    out = []
+    for k, item in enumerate(_list(value, "obstacles")):
+        where = f"obstacles[{k}]"
+        entry = _mapping(item, where)
+        _no_unknown(entry, {"centre", "radius"}, where)
+        out.append(
+            Obstacle(
+                centre=_vector(entry.get("centre"), f"{where}.centre", dim),
+                radius=_positive(entry.get("radius"), f"{where}.radius"),
+            )
+        )
+    return tuple(out)
+
+
+def _reshapes(value: Any, dt: float) -> tuple[Reshape, ...]:
+    out: list[Reshape] = []
+    for k, item in enumerate(_list(value, "reshape")):
+        where = f"reshape[{k}]"
+        entry = _mapping(item, where)
+        _no_unknown(entry, {"at", "scale", "rotate"}, where)
+        tick = round(_non_negative(entry.get("at"), f"{where}.at") / dt)
+        if out and tick < out[-1].tick:
+            raise ScenarioError(f"{where}.at", "reshapes must be listed in time order")
+        out.append(
+            Reshape(
+                tick=tick,
+                scale=_positive(entry.get("scale", 1.0), f"{where}.scale"),
+                rotate=_number(entry.get("rotate", 0.0), f"{where}.rotate"),
+            )
+        )
+    return tuple(out)

@@ -1,0 +1,166 @@
+"""Ground-truth metrics of a run, computed from its trajectory alone.
+
+The formation error of follower i at tick k is ‖s_i - s_1 - R(θ)δ_i/σ‖_∞ (m), with the σ, θ that
+agent applied at tick k: the laws and the bounds of Theorem 1 / Remark 3 work per coordinate.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from bus.geometry import FloatArray, rotation
+from bus.path import peak_speed
+from world.scenario import Scenario
+from world.theory import convergence_bound
+from world.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class Summary:
+    """What a run amounted to. Distances in m, times in s; None where it does not apply."""
+
+    scenario: str
+    agents: int
+    steps: int
+    dt: float
+    collisions: int
+    min_clearance: float | None
+    min_interagent_distance: float
+    convergence_time: float | None
+    convergence_bound: float
+    tolerance: float
+    final_formation_error: float
+    sigma: float
+    sigma_rounds: int | None
+    omega_episodes: int
+    assumption2_violations: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def formation_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
+    """(T, n-1) formation error of every follower at the start of every tick, m."""
+    offsets = scenario.offsets[1:]
+    rel = traj.positions[:-1, 1:] - traj.positions[:-1, :1]
+    out = np.empty(rel.shape[:2])
+    for k in range(traj.ticks):
+        desired = np.stack(
+            [
+                rotation(float(traj.theta[k, i + 1]), scenario.dim)
+                @ offsets[i]
+                / traj.sigma[k, i + 1]
+                for i in range(offsets.shape[0])
+            ]
+        )
+        out[k] = np.abs(rel[k] - desired).max(axis=1)
+    return out
+
+
+def clearances(scenario: Scenario, traj: Trajectory) -> FloatArray:
+    """(T+1, n, m) distance from every agent to every obstacle's edge, m."""
+    centres, radii = scenario.obstacle_centres, scenario.obstacle_radii
+    diff = traj.positions[:, :, None, :] - centres[None, None, :, :]
+    return np.asarray(np.linalg.norm(diff, axis=-1) - radii, dtype=np.float64)
+
+
+def pair_distances(traj: Trajectory) -> FloatArray:
+    """(T+1, n(n-1)/2) distance between every pair of agents, m, pairs in (i<j) order."""
+    n = traj.positions.shape[1]
+    pairs = list(itertools.combinations(range(n), 2))
+    return np.stack(
+        [np.linalg.norm(traj.positions[:, i] - traj.positions[:, j], axis=1) for i, j in pairs],
+        axis=1,
+    )
+
+
+def onsets(flags: np.ndarray[Any, np.dtype[np.bool_]]) -> int:
+    """Number of False→True switches along axis 0 (a flag already set at tick 0 counts)."""
+    before = np.concatenate([np.zeros_like(flags[:1]), flags[:-1]])
+    return int((flags & ~before).sum())
+
+
+def sigma_rounds(bid: FloatArray, rounds: int) -> int | None:
+    """Rounds Algorithm 1 took to spread the maximum bid in the first epoch that contracted.
+
+    Values announced at tick eK + r have been through r rounds; after K = L_G rounds all agree
+    (Proposition 1), which the next epoch applies. None if no agent ever bid above 1.
+    """
+    for start in range(0, bid.shape[0], rounds):
+        epoch = bid[start : start + rounds]
+        top = float(epoch.max())
+        if top <= 1.0:
+            continue
+        for r in range(epoch.shape[0]):
+            if np.all(epoch[r] == top):
+                return r
+        return rounds
+    return None
+
+
+def assumption2_violations(scenario: Scenario, omega: np.ndarray[Any, Any]) -> int:
+    """Ticks at which some evading agent has every neighbour evading too."""
+    a = scenario.adjacency
+    count = 0
+    for k in range(omega.shape[0]):
+        for i in np.flatnonzero(omega[k]):
+            row = np.flatnonzero(a[i])
+            if row.size and omega[k, row].all():
+                count += 1
+                break
+    return count
+
+
+def summarize(scenario: Scenario, traj: Trajectory) -> Summary:
+    """The figures reported after a run."""
+    errors = formation_errors(scenario, traj)
+    worst = errors.max(axis=1)
+    below = np.flatnonzero(worst <= scenario.tolerance)
+    z0 = (
+        traj.positions[0, 1:]
+        - traj.positions[0, 0]
+        - np.stack(
+            [
+                rotation(float(traj.theta[0, i]), scenario.dim)
+                @ scenario.offsets[i]
+                / traj.sigma[0, i]
+                for i in range(1, scenario.n)
+            ]
+        )
+    )
+    bound = convergence_bound(
+        scenario.adjacency,
+        z0,
+        directed=scenario.directed,
+        beta=scenario.control.beta,
+        f_max=peak_speed(scenario.path),
+    )
+    collisions = 0
+    min_clearance = None
+    if scenario.obstacles:
+        clear = clearances(scenario, traj)
+        min_clearance = float(clear.min())
+        collisions += onsets(clear < scenario.agent_radius)
+    pairs = pair_distances(traj)
+    collisions += onsets(pairs < 2 * scenario.agent_radius)
+    return Summary(
+        scenario=scenario.name,
+        agents=scenario.n,
+        steps=traj.ticks,
+        dt=traj.dt,
+        collisions=collisions,
+        min_clearance=min_clearance,
+        min_interagent_distance=float(pairs.min()),
+        convergence_time=float(below[0] * traj.dt) if below.size else None,
+        convergence_bound=bound,
+        tolerance=scenario.tolerance,
+        final_formation_error=float(worst[-1]),
+        sigma=float(traj.sigma.max()),
+        sigma_rounds=sigma_rounds(traj.bid, scenario.rounds),
+        omega_episodes=onsets(traj.omega),
+        assumption2_violations=assumption2_violations(scenario, traj.omega),
+    )

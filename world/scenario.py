@@ -1,0 +1,156 @@
+"""The scenario model: a frozen, validated description of one run.
+
+Loaded from YAML by :mod:`world.loader`; checked against the paper's assumptions by
+:mod:`world.assumptions`. Lengths in metres, times in seconds, angles in radians. Agent ids are
+1..n; agent 1 is the leader and its offset is zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from bus.types import AgentConfig, ControlParams, PathSpec, Reshape, Vector
+from world.graph import FloatArray, adjacency, communication_graph, diameter
+
+
+@dataclass(frozen=True, slots=True)
+class Obstacle:
+    """A stationary circular (spherical in 3-D) obstacle."""
+
+    centre: Vector
+    radius: float
+
+
+@dataclass(frozen=True, slots=True)
+class AgentSpec:
+    """One agent: where it starts and its desired offset δ_i from the leader."""
+
+    agent_id: int
+    initial: Vector
+    offset: Vector
+
+
+@dataclass(frozen=True, slots=True)
+class Control:
+    """The gains and thresholds of the scenario (see :class:`bus.types.ControlParams`)."""
+
+    alpha: float
+    beta: float
+    sensing_radius: float
+    trigger_radius: float
+    epsilon: float
+    safety_margin: float
+    heading_tau: float
+    sigma_max: float
+    boundary_layer: float
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything needed to run and to judge one run."""
+
+    name: str
+    description: str
+    dim: int
+    dt: float
+    duration: float
+    seed: int
+    agents: tuple[AgentSpec, ...]
+    directed: bool
+    edges: tuple[tuple[int, int], ...]
+    path: PathSpec
+    obstacles: tuple[Obstacle, ...]
+    reshapes: tuple[Reshape, ...]
+    control: Control
+    agent_radius: (
+        float  # m: two agents closer than 2× this, or an agent this close to an obstacle, collide
+    )
+    tolerance_factor: float  # formation converged when every error ≤ this × β·dt
+    source: str = ""  # the YAML text it was loaded from
+
+    @property
+    def n(self) -> int:
+        return len(self.agents)
+
+    @property
+    def steps(self) -> int:
+        """Number of ticks simulated."""
+        return round(self.duration / self.dt)
+
+    @property
+    def tolerance(self) -> float:
+        """Convergence tolerance, m: tolerance_factor · β · dt (the sign term's chattering band)."""
+        return self.tolerance_factor * self.control.beta * self.dt
+
+    @cached_property
+    def adjacency(self) -> FloatArray:
+        return adjacency(self.n, self.edges, directed=self.directed)
+
+    @cached_property
+    def rounds(self) -> int:
+        """L_G, the diameter of the communication graph: rounds of Algorithm 1 per epoch."""
+        return max(1, diameter(communication_graph(self.adjacency)))
+
+    @property
+    def offsets(self) -> FloatArray:
+        """(n, dim) desired offsets δ, m."""
+        return np.asarray([a.offset for a in self.agents], dtype=np.float64)
+
+    @property
+    def initial_positions(self) -> FloatArray:
+        """(n, dim) initial positions, m."""
+        return np.asarray([a.initial for a in self.agents], dtype=np.float64)
+
+    @property
+    def obstacle_centres(self) -> FloatArray:
+        return np.asarray([o.centre for o in self.obstacles], dtype=np.float64).reshape(
+            len(self.obstacles), self.dim
+        )
+
+    @property
+    def obstacle_radii(self) -> FloatArray:
+        return np.asarray([o.radius for o in self.obstacles], dtype=np.float64)
+
+    @property
+    def formation_radius(self) -> float:
+        """max_i ‖δ_i‖, m: radius of the leader-centred circle enclosing the formation."""
+        return float(np.linalg.norm(self.offsets, axis=1).max())
+
+    def params(self) -> ControlParams:
+        c = self.control
+        return ControlParams(
+            alpha=c.alpha,
+            beta=c.beta,
+            sensing_radius=c.sensing_radius,
+            trigger_radius=c.trigger_radius,
+            epsilon=c.epsilon,
+            safety_margin=c.safety_margin,
+            heading_tau=c.heading_tau,
+            sigma_max=c.sigma_max,
+            rounds=self.rounds,
+            boundary_layer=c.boundary_layer,
+        )
+
+    def agent_config(self, agent_id: int) -> AgentConfig:
+        """The configuration agent ``agent_id`` runs with (what the world serves it)."""
+        a = self.adjacency
+        comm = communication_graph(a)
+        i = agent_id - 1
+        senses = tuple(int(j) + 1 for j in np.flatnonzero(a[i]))
+        talks_to = tuple(int(j) + 1 for j in np.flatnonzero(comm[i]))
+        return AgentConfig(
+            agent_id=agent_id,
+            dim=self.dim,
+            dt=self.dt,
+            params=self.params(),
+            senses=senses if i > 0 else (),
+            talks_to=talks_to,
+            offset=self.agents[i].offset,
+            neighbour_offsets=tuple(self.agents[j - 1].offset for j in senses) if i > 0 else (),
+            formation_radius=self.formation_radius,
+            path=self.path if i == 0 else None,
+            reshapes=self.reshapes,
+        )

@@ -1,0 +1,71 @@
+"""The record of a run: everything the metrics and the figures are computed from.
+
+Shapes use T = number of ticks, n = agents, dim = 2 or 3. Tick k covers [k·dt, (k+1)·dt).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bus.geometry import FloatArray
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """positions : (T+1, n, dim) m, at the start of every tick and after the last.
+    velocities : (T, n, dim) m/s, commanded during each tick.
+    omega : (T, n) bool, Ω_i announced at each tick.
+    bid : (T, n), each agent's value in Algorithm 1 as announced at each tick.
+    sigma, theta : (T, n), the scale and rotation (rad) each agent applied at each tick.
+    """
+
+    dt: float
+    positions: FloatArray
+    velocities: FloatArray
+    omega: NDArray[np.bool_]
+    bid: FloatArray
+    sigma: FloatArray
+    theta: FloatArray
+
+    @property
+    def ticks(self) -> int:
+        return int(self.velocities.shape[0])
+
+    def save(self, path: Path) -> None:
+        """Write an .npz file (uncompressed, exact float64)."""
+        np.savez(
+            path,
+            dt=np.float64(self.dt),
+            positions=self.positions,
+            velocities=self.velocities,
+            omega=self.omega,
+            bid=self.bid,
+            sigma=self.sigma,
+            theta=self.theta,
+        )
+
+    @classmethod
+    def load(cls, path: Path) -> Trajectory:
+        with np.load(path) as z:
+            return cls(
+                dt=float(z["dt"]),
+                positions=z["positions"],
+                velocities=z["velocities"],
+                omega=z["omega"],
+                bid=z["bid"],
+                sigma=z["sigma"],
+                theta=z["theta"],
+            )
+
+    def equals(self, other: Trajectory) -> bool:
+        """Bit-for-bit equality of every array."""
+        names = ("positions", "velocities", "omega", "bid", "sigma", "theta")
+        return self.dt == other.dt and all(
+            getattr(self, k).tobytes() == getattr(other, k).tobytes()
+            and getattr(self, k).shape == getattr(other, k).shape
+            for k in names
+        )
