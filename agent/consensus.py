@@ -44,14 +44,14 @@ def passage_bid(
 ) -> float:
     """σ^i: the contraction this agent asks for, ≥ 1 (1 = no narrow passage in its way).
 
-    A pair of sensed obstacles j, k is a narrow passage when its free width
-    w = ‖c_j - c_k‖ - r_j - r_k is less than the formation's diameter 2·formation_radius and the
-    agent heads through the gap rather than along it. The agent bids for it until both its own
-    position and ``position + slot_shift`` (where its slot moves once the formation expands
-    again) are beyond the far side of the pair's guard circles, so expansion never pulls an
-    agent back into the passage. The leader goes through a passage's middle and the formation is
-    scaled about the leader, so it fits when formation_radius / σ ≤ w/2 - ρ - ε. A gap with no
-    usable width bids ``sigma_max``.
+    A pair of sensed obstacles j, k is a narrow passage when its usable width w - 2(ρ + ε)
+    (w = ‖c_j - c_k‖ - r_j - r_k, the free width) is less than the formation's diameter
+    2·formation_radius and the agent heads through the gap rather than along it. The agent bids
+    for it until both its own position and ``position + slot_shift`` (where its slot moves once
+    the formation expands again) are beyond the far side of the pair's guard circles, so
+    expansion never pulls an agent back into the passage. The leader goes through a passage's
+    middle and the formation is scaled about the leader, so it fits when
+    formation_radius / σ ≤ w/2 - ρ - ε. A gap with no usable width bids ``sigma_max``.
     """
     speed = float(np.linalg.norm(heading))
     if speed < 1e-9 or formation_radius <= 0.0:
@@ -63,9 +63,9 @@ def passage_bid(
         for k in range(j + 1, m):
             span = centres[k] - centres[j]
             length = float(np.linalg.norm(span))
-            gap = length - radii[j] - radii[k]
-            if gap >= 2.0 * formation_radius or length == 0.0:
-                continue  # the whole formation fits, or degenerate
+            usable = length - radii[j] - radii[k] - 2.0 * (safety_margin + epsilon)
+            if usable >= 2.0 * formation_radius or length == 0.0:
+                continue  # the whole formation fits with its margins, or degenerate
             across = span / length
             if abs(float(unit @ across)) > _MAX_ALONG_COS:
                 continue  # moving along the pair, not through it
@@ -78,7 +78,6 @@ def passage_bid(
             )
             if ahead >= far:
                 continue  # through, and so is the slot it will expand to
-            usable = gap - 2.0 * (safety_margin + epsilon)
             need = sigma_max if usable <= 0 else 2.0 * formation_radius / usable
             bid = max(bid, min(sigma_max, need))
     return bid

@@ -30,6 +30,20 @@ def path_position(path: PathSpec, t: float) -> FloatArray:
     return _along_waypoints(path, path.speed * t)
 
 
+def path_positions(path: PathSpec, times: FloatArray) -> FloatArray:
+    """p(t) for many times at once: (k,) s in, (k, dim) m out."""
+    if isinstance(path, Sinusoid):
+        start = np.asarray(path.start, dtype=np.float64)
+        direction = np.asarray(path.direction, dtype=np.float64)
+        normal = np.asarray(path.normal, dtype=np.float64)
+        wave = path.amplitude * np.sin(2.0 * math.pi * times / path.period)
+        return np.asarray(
+            start + np.outer(path.speed * times, direction) + np.outer(wave, normal),
+            dtype=np.float64,
+        )
+    return np.asarray([path_position(path, float(t)) for t in times], dtype=np.float64)
+
+
 def _along_waypoints(path: Waypoints, distance: float) -> FloatArray:
     points = np.asarray(path.points, dtype=np.float64)
     for a, b in itertools.pairwise(points):

@@ -7,11 +7,13 @@ float64 values, so a lockstep run over Zenoh must reproduce its trajectory bit f
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
 from agent.controller import Controller
+from bus.geometry import FloatArray
 from bus.types import AgentState
 from world.kinematics import integrate, sensing_for
 from world.scenario import Scenario
@@ -20,33 +22,55 @@ from world.trajectory import Trajectory
 Progress = Callable[[int], None]
 
 
-def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
-    """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
-    n, dim, steps = scenario.n, scenario.dim, scenario.steps
+@dataclass(frozen=True)
+class Tick:
+    """One tick of a run: positions (n, dim) at its start, the states announced, the
+    velocities (n, dim) commanded during it, and the positions it ends at."""
+
+    tick: int
+    positions: FloatArray
+    states: tuple[AgentState, ...]
+    velocities: FloatArray
+    next_positions: FloatArray
+
+
+def run(scenario: Scenario) -> Iterator[Tick]:
+    """Yield every tick of ``scenario`` in order; stop iterating to stop the run early."""
+    n = scenario.n
     controllers = [Controller(scenario.agent_config(i + 1)) for i in range(n)]
     memories = [c.start() for c in controllers]
     centres, radii = scenario.obstacle_centres, scenario.obstacle_radii
     d = scenario.control.sensing_radius
+    positions = scenario.initial_positions
+    for k in range(scenario.steps):
+        sensings = [sensing_for(k, positions[i], centres, radii, d) for i in range(n)]
+        states: dict[int, AgentState] = {}
+        for i, c in enumerate(controllers):
+            memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
+        velocities = np.empty_like(positions)
+        for i, c in enumerate(controllers):
+            heard = {j: states[j] for j in c.listens_to}
+            memories[i], command = c.act(memories[i], sensings[i], heard)
+            velocities[i] = command.velocity
+        moved = integrate(positions, velocities, scenario.dt)
+        yield Tick(k, positions, tuple(states[i + 1] for i in range(n)), velocities, moved)
+        positions = moved
 
+
+def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
+    """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
+    n, dim, steps = scenario.n, scenario.dim, scenario.steps
     positions = np.empty((steps + 1, n, dim))
     velocities = np.empty((steps, n, dim))
     omega = np.zeros((steps, n), dtype=bool)
     bid, sigma, theta = (np.empty((steps, n)) for _ in range(3))
     positions[0] = scenario.initial_positions
-
-    for k in range(steps):
-        sensings = [sensing_for(k, positions[k, i], centres, radii, d) for i in range(n)]
-        states: dict[int, AgentState] = {}
-        for i, c in enumerate(controllers):
-            memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
-        for i, c in enumerate(controllers):
-            heard = {j: states[j] for j in c.listens_to}
-            memories[i], command = c.act(memories[i], sensings[i], heard)
-            velocities[k, i] = command.velocity
-        for i in range(n):
-            s = states[i + 1]
+    for t in run(scenario):
+        k = t.tick
+        velocities[k] = t.velocities
+        positions[k + 1] = t.next_positions
+        for i, s in enumerate(t.states):
             omega[k, i], bid[k, i], sigma[k, i], theta[k, i] = s.omega, s.bid, s.sigma, s.theta
-        positions[k + 1] = integrate(positions[k], velocities[k], scenario.dt)
         if progress is not None:
             progress(k)
     return Trajectory(

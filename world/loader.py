@@ -26,6 +26,9 @@ _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
     "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape",
 }  # fmt: skip
+# No length, time or gain in a scenario is larger: squares and sums stay far from overflow.
+_LARGEST = 1e9
+_MOST_STEPS = 10_000_000
 _CONTROL_DEFAULTS: dict[str, float] = {
     "alpha": 1.0,
     "beta": 2.0,
@@ -63,7 +66,7 @@ def parse_scenario(text: str, *, default_name: str = "scenario") -> Scenario:
     """Parse and validate YAML text."""
     try:
         data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
+    except (yaml.YAMLError, ValueError) as exc:  # ValueError: e.g. an integer too long to parse
         raise ScenarioError("yaml", f"not valid YAML: {exc}") from None
     if not isinstance(data, Mapping):
         raise ScenarioError("scenario", "the file must hold a mapping of fields")
@@ -82,7 +85,13 @@ def scenario_from_dict(
     duration = _positive(data.get("duration", 20.0), "duration")
     if duration < dt:
         raise ScenarioError("duration", f"{duration} s is shorter than one step dt = {dt} s")
+    if duration / dt > _MOST_STEPS:
+        raise ScenarioError(
+            "duration", f"{duration} s at dt = {dt} s is more than {_MOST_STEPS:,} steps"
+        )
     seed = _integer(data.get("seed", 0), "seed")
+    if seed < 0:
+        raise ScenarioError("seed", f"must be ≥ 0, got {seed}")
     path = _path(data.get("leader"), dim)
     agents = _agents(data.get("agents"), dim, path, seed, data.get("initial_noise", 0.0))
     directed, edges = _graph(data.get("graph"), len(agents))
@@ -98,7 +107,7 @@ def scenario_from_dict(
         edges=edges,
         path=path,
         obstacles=_obstacles(data.get("obstacles", []), dim),
-        reshapes=_reshapes(data.get("reshape", []), dt),
+        reshapes=_reshapes(data.get("reshape", []), dt, duration),
         control=_control(data.get("control", {})),
         agent_radius=_non_negative(data.get("agent_radius", 0.05), "agent_radius"),
         tolerance_factor=_positive(data.get("tolerance_factor", 10.0), "tolerance_factor"),
@@ -123,8 +132,12 @@ def _no_unknown(data: Mapping[str, Any], known: set[str], where: str) -> None:
 def _number(value: Any, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ScenarioError(field, f"must be a number, got {value!r}")
+    if isinstance(value, int) and abs(value) > _LARGEST:
+        raise ScenarioError(field, f"must be within ±{_LARGEST:g}, got a larger integer")
     if not math.isfinite(value):
         raise ScenarioError(field, f"must be finite, got {value!r}")
+    if abs(value) > _LARGEST:
+        raise ScenarioError(field, f"must be within ±{_LARGEST:g}, got {value!r}")
     return float(value)
 
 
@@ -219,9 +232,11 @@ def _path(value: Any, dim: int) -> PathSpec:
     direction = direction / np.linalg.norm(direction)
     if "normal" in s:
         normal = np.asarray(_vector(s["normal"], f"{where}.normal", dim))
-    else:
+    else:  # the direction turned +90° in the xy-plane; along z, the x axis
         normal = np.zeros(dim)
         normal[:2] = (-direction[1], direction[0])
+        if np.linalg.norm(normal) < 1e-9:
+            normal[0] = 1.0
     normal = normal - (normal @ direction) * direction
     if np.linalg.norm(normal) < 1e-9:
         raise ScenarioError(f"{where}.normal", "must not be parallel to the direction")
@@ -302,13 +317,16 @@ def _obstacles(value: Any, dim: int) -> tuple[Obstacle, ...]:
     return tuple(out)
 
 
-def _reshapes(value: Any, dt: float) -> tuple[Reshape, ...]:
+def _reshapes(value: Any, dt: float, duration: float) -> tuple[Reshape, ...]:
     out: list[Reshape] = []
     for k, item in enumerate(_list(value, "reshape")):
         where = f"reshape[{k}]"
         entry = _mapping(item, where)
         _no_unknown(entry, {"at", "scale", "rotate"}, where)
-        tick = round(_non_negative(entry.get("at"), f"{where}.at") / dt)
+        at = _non_negative(entry.get("at"), f"{where}.at")
+        if at > duration:
+            raise ScenarioError(f"{where}.at", f"{at} s is after the end of the run ({duration} s)")
+        tick = round(at / dt)
         if out and tick < out[-1].tick:
             raise ScenarioError(f"{where}.at", "reshapes must be listed in time order")
         out.append(

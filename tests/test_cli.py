@@ -1,0 +1,73 @@
+"""The `shoal` command line, through click's runner (same code path as the console script)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from tools.cli import main
+from tools.simulator import simulate
+from world.loader import load_scenario
+from world.trajectory import Trajectory
+
+KEYS = {
+    "scenario", "agents", "steps", "dt", "collisions", "min_clearance",
+    "min_interagent_distance", "convergence_time", "convergence_bound", "sigma",
+    "sigma_rounds", "omega_episodes",
+}  # fmt: skip
+
+
+def test_simulate_json_has_the_documented_keys(tmp_path: Path) -> None:
+    result = CliRunner().invoke(main, ["simulate", "passage", "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary.keys() >= KEYS
+    assert summary["scenario"] == "passage"
+    assert summary["agents"] == 5
+    assert summary["steps"] == 4500
+    assert summary["collisions"] == 0
+    assert summary["sigma"] > 3.9
+
+
+def test_simulate_out_saves_the_exact_trajectory(tmp_path: Path) -> None:
+    out = tmp_path / "run.npz"
+    result = CliRunner().invoke(main, ["simulate", "sinusoid", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "collisions" in result.output and "convergence" in result.output
+    assert Trajectory.load(out).equals(simulate(load_scenario("sinusoid")))
+
+
+def test_unknown_scenario_is_a_clear_error() -> None:
+    result = CliRunner().invoke(main, ["simulate", "nowhere"])
+    assert result.exit_code == 1
+    assert "no file 'nowhere' and no built-in" in result.output
+    assert "sinusoid" in result.output
+
+
+def test_bad_scenario_file_names_the_field(tmp_path: Path) -> None:
+    text = load_scenario("default").source.replace("beta: 2.0", "beta: -1")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    result = CliRunner().invoke(main, ["simulate", str(bad)])
+    assert result.exit_code == 1
+    assert "control.beta: must be > 0, got -1.0" in result.output
+
+
+def test_fast_leader_warns_but_runs(tmp_path: Path) -> None:
+    text = load_scenario("sinusoid").source.replace("beta: 2.0", "beta: 1.1")
+    fast = tmp_path / "fast.yaml"
+    fast.write_text(text)
+    result = CliRunner().invoke(main, ["simulate", str(fast), "--json"])
+    assert result.exit_code == 0
+    assert "warning:" in result.stderr and "Theorem 1" in result.stderr
+
+
+def test_scenarios_lists_every_builtin_and_prints_one() -> None:
+    listed = CliRunner().invoke(main, ["scenarios"])
+    assert listed.exit_code == 0
+    for name in ("default", "sinusoid", "passage", "obstacles"):
+        assert name in listed.output
+    shown = CliRunner().invoke(main, ["scenarios", "passage"])
+    assert shown.output == load_scenario("passage").source

@@ -1,0 +1,148 @@
+"""One agent's controller: Algorithm 2's edge dropping, (12), Algorithm 1's epochs, reshapes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from agent.controller import Controller, Memory
+from agent.errors import ConfigError
+from agent.formation import consensus_error, velocity
+from bus.types import AgentState, Sensing
+from world.loader import scenario_from_dict
+from world.scenario import Scenario
+
+
+def triangle(**extra: Any) -> Scenario:
+    """Leader 1 and followers 2, 3, all linked; agent 2's offset (-2, 2), agent 3's (-2, -2)."""
+    data: dict[str, Any] = {
+        "dt": 0.01,
+        "duration": 1.0,
+        "control": {"alpha": 1.0, "beta": 2.0},
+        "graph": {"edges": [[1, 2], [1, 3], [2, 3]]},
+        "agents": [{"offset": [0, 0]}, {"offset": [-2, 2]}, {"offset": [-2, -2]}],
+        "leader": {"waypoints": [[0, 0], [100, 0]], "speed": 1.0},
+    }
+    data.update(extra)
+    return scenario_from_dict(data)
+
+
+def state(
+    agent_id: int, position: tuple[float, float], *, omega: bool = False, bid: float = 1.0
+) -> AgentState:
+    return AgentState(agent_id, 0, position, omega, bid, 1.0, 0.0)
+
+
+def sensing(position: tuple[float, float], tick: int = 0, **obstacles: Any) -> Sensing:
+    return Sensing(
+        tick=tick,
+        position=position,
+        obstacle_ids=obstacles.get("ids", ()),
+        obstacle_centres=obstacles.get("centres", ()),
+        obstacle_radii=obstacles.get("radii", ()),
+    )
+
+
+def command_of(c: Controller, me: tuple[float, float], heard: dict[int, AgentState]) -> np.ndarray:
+    memory, _ = c.announce(c.start(), sensing(me))
+    _, cmd = c.act(memory, sensing(me), heard)
+    return np.asarray(cmd.velocity)
+
+
+def law(
+    me: tuple[float, float], my_offset: tuple[float, float], others: list[tuple[Any, Any]]
+) -> np.ndarray:
+    e = consensus_error(
+        np.asarray(me, float),
+        np.asarray(my_offset, float),
+        np.asarray([p for p, _ in others], float).reshape(len(others), 2),
+        np.asarray([o for _, o in others], float).reshape(len(others), 2),
+    )
+    return velocity(e, alpha=1.0, beta=2.0, boundary_layer=0.0)
+
+
+def test_follower_uses_every_neighbour_when_nobody_evades() -> None:
+    c = Controller(triangle().agent_config(2))
+    me, leader, three = (-1.0, 1.5), (0.5, 0.0), (-2.5, -2.0)
+    v = command_of(c, me, {1: state(1, leader), 3: state(3, three)})
+    expected = law(me, (-2, 2), [(leader, (0, 0)), (three, (-2, -2))])
+    assert np.array_equal(v, expected)
+
+
+def test_neighbour_with_omega_set_is_dropped_and_restored_after() -> None:
+    """Algorithm 2: A_23 = 0 while Ω_3 = 1, back to Ā_23 when Ω_3 = 0."""
+    c = Controller(triangle().agent_config(2))
+    me, leader, three = (-1.0, 1.5), (0.5, 0.0), (-2.5, -2.0)
+    only_leader = law(me, (-2, 2), [(leader, (0, 0))])
+    both = law(me, (-2, 2), [(leader, (0, 0)), (three, (-2, -2))])
+    assert not np.array_equal(only_leader, both)
+    evading = command_of(c, me, {1: state(1, leader), 3: state(3, three, omega=True)})
+    assert np.array_equal(evading, only_leader)
+    restored = command_of(c, me, {1: state(1, leader), 3: state(3, three, omega=False)})
+    assert np.array_equal(restored, both)
+
+
+def test_missing_neighbour_is_treated_as_gone() -> None:
+    c = Controller(triangle().agent_config(2))
+    me, leader = (-1.0, 1.5), (0.5, 0.0)
+    assert np.array_equal(
+        command_of(c, me, {1: state(1, leader)}), law(me, (-2, 2), [(leader, (0, 0))])
+    )
+
+
+def test_leader_follows_its_path_whatever_it_hears() -> None:
+    c = Controller(triangle().agent_config(1))
+    v = command_of(c, (0.0, 0.0), {2: state(2, (5.0, 5.0), omega=True)})
+    assert v == pytest.approx([1.0, 0.0])
+
+
+def test_obstacle_ahead_sets_omega_and_pushes_the_agent_away() -> None:
+    scenario = triangle(obstacles=[{"centre": [20.0, 2.3], "radius": 1.0}])
+    c = Controller(scenario.agent_config(2))
+    me = (17.0, 2.0)  # heading +x; the obstacle is 3 m ahead, 0.3 m to the left of its path
+    obstacle = {"ids": (0,), "centres": ((20.0, 2.3),), "radii": (1.0,)}
+    memory = Memory(heading=np.array([1.0, 0.0]), evasion=None, bid=1.0, sigma_consensus=1.0)
+    memory, announced = c.announce(memory, sensing(me, **obstacle))
+    assert announced.omega
+    assert memory.evasion is not None
+    # u^o points from the obstacle towards the path (−y), by r + ρ + ε − d = 1 + 0.2 + 0.05 − 0.3.
+    assert memory.evasion.offset == pytest.approx([0.0, -0.95])
+    # In formation (at its slot), the agent now moves towards −y, away from the obstacle.
+    leader, three = (19.0, 0.0), (17.0, -2.0)
+    _, cmd = c.act(memory, sensing(me, **obstacle), {1: state(1, leader), 3: state(3, three)})
+    assert cmd.velocity[1] < 0
+
+
+def test_agreed_sigma_applies_from_the_next_epoch_for_everyone() -> None:
+    scenario = triangle()
+    rounds = scenario.rounds
+    assert rounds == 1  # a triangle has diameter 1
+    c = Controller(scenario.agent_config(3))
+    memory = c.start()
+    sigmas = []
+    for tick in range(4):
+        memory, announced = c.announce(memory, sensing((-2.0, -2.0), tick))
+        sigmas.append(announced.sigma)
+        bid = 3.0 if tick == 0 else 1.0  # agent 2 sees a passage only at tick 0
+        memory, _ = c.act(memory, sensing((-2.0, -2.0), tick), {2: state(2, (-2.0, 2.0), bid=bid)})
+    assert sigmas == [1.0, 3.0, 1.0, 1.0]
+
+
+def test_reshape_schedule_sets_scale_and_rotation_from_its_tick() -> None:
+    scenario = triangle(reshape=[{"at": 0.5, "scale": 2.0, "rotate": 0.3}])
+    c = Controller(scenario.agent_config(2))
+    assert c.shape(49, 1.0) == (1.0, 0.0)
+    assert c.shape(50, 1.0) == (2.0, 0.3)
+    assert c.shape(50, 4.0) == (8.0, 0.3)  # demanded scale times the agreed contraction
+
+
+def test_bad_config_is_refused_with_the_field_named() -> None:
+    cfg = triangle().agent_config(2)
+    from dataclasses import replace
+
+    with pytest.raises(ConfigError, match="offset"):
+        Controller(replace(cfg, offset=(1.0, 2.0, 3.0)))
+    with pytest.raises(ConfigError, match=r"params\.rounds"):
+        Controller(replace(cfg, params=replace(cfg.params, rounds=0)))
