@@ -140,3 +140,33 @@ class Command:
     agent_id: int
     tick: int
     velocity: Vector
+
+
+@dataclass(frozen=True, slots=True)
+class TickRecord:
+    """World → all, once per tick: the ground truth of tick ``tick``.
+
+    positions (n, dim) m at the start of the tick and velocities (n, dim) m/s held during it, as
+    nested tuples in agent-id order; omega, bid, sigma, theta as each agent announced them; alive
+    False for an agent the world holds still because its process is gone.
+    """
+
+    tick: int
+    positions: tuple[Vector, ...]
+    velocities: tuple[Vector, ...]
+    omega: tuple[bool, ...]
+    bid: tuple[float, ...]
+    sigma: tuple[float, ...]
+    theta: tuple[float, ...]
+    alive: tuple[bool, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Event:
+    """World → all: a line for the log. level: 1 debug, 2 info, 3 warning, 4 error (as
+    foxglove.Log); agent: the agent it is about, 0 if none."""
+
+    tick: int
+    level: int
+    agent: int
+    text: str

@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import click
 
+from tools.cmd_agent import agent
+from tools.cmd_logger import logger
+from tools.cmd_router import router
+from tools.cmd_run import run
 from tools.cmd_scenarios import scenarios
 from tools.cmd_simulate import simulate
+from tools.cmd_world import world
 
 
 @click.group(context_settings={"auto_envvar_prefix": "SHOAL", "show_default": True})
@@ -14,5 +19,5 @@ def main() -> None:
     """Safe formation control for swarms of mobile robots (leader–follower, obstacle avoidance)."""
 
 
-main.add_command(simulate)
-main.add_command(scenarios)
+for command in (run, simulate, scenarios, router, world, agent, logger):
+    main.add_command(command)

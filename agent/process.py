@@ -1,0 +1,149 @@
+"""The agent process: one robot's controller as an OS process on the bus.
+
+A thin loop around :class:`agent.controller.Controller`. It needs only the run id, its own id
+and an endpoint: it waits for the world's liveliness token, fetches its configuration from the
+world's queryable, subscribes to its own sensing and to its neighbours' states, and declares its
+own token once ready. Per tick (lockstep): sensing arrives → ``announce`` → publish the state;
+once every neighbour that is still present has announced the same tick → ``act`` → publish the
+command. A neighbour whose token vanishes is treated as gone (its edges dropped). When the
+world's token vanishes the agent stops commanding motion and exits.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from dataclasses import dataclass
+
+import zenoh
+
+from agent.controller import Controller
+from bus import codec
+from bus.errors import DecodeError
+from bus.keys import Keys, agent_of
+from bus.links import publisher, subscribe, watch_presence
+from bus.runtime import Arrival, Inbox, warn
+from bus.types import AgentConfig, AgentState, Sensing
+
+
+class AgentAbort(RuntimeError):
+    """The agent cannot take part (no world, no configuration)."""
+
+
+@dataclass(frozen=True)
+class AgentOptions:
+    run: str
+    agent_id: int
+    start_timeout: float = 60.0  # s to wait for the world and its configuration
+
+
+def fetch_config(session: zenoh.Session, keys: Keys, agent_id: int, timeout: float) -> AgentConfig:
+    """Ask the world's queryable for this agent's configuration."""
+    for reply in session.get(keys.config(agent_id), timeout=timeout):
+        if reply.ok is not None:
+            try:
+                config = codec.decode_config(reply.ok.payload.to_bytes())
+            except DecodeError as exc:
+                raise AgentAbort(f"agent {agent_id}: bad configuration: {exc}") from None
+            if config.agent_id == agent_id:
+                return config
+    raise AgentAbort(f"agent {agent_id}: the world has no configuration for this agent")
+
+
+class AgentNode:
+    """The agent's state between arrivals; Zenoh I/O goes through ``session`` only."""
+
+    def __init__(self, options: AgentOptions, session: zenoh.Session) -> None:
+        self.options = options
+        self.keys = k = Keys(options.run)
+        self.session = session
+        self.inbox = Inbox()
+        self.dropped = 0
+        self._world_watch = watch_presence(session, k.alive_world, self.inbox)
+        self._await_world()
+        self.controller = Controller(
+            fetch_config(session, k, options.agent_id, options.start_timeout)
+        )
+        me = options.agent_id
+        self._held = [subscribe(session, k.sensing(me), self.inbox)]
+        self._held += [
+            subscribe(session, k.state(j), self.inbox) for j in self.controller.listens_to
+        ]
+        self._held.append(watch_presence(session, k.alive_agents, self.inbox))
+        self.state_out = publisher(session, k.state(me))
+        self.command_out = publisher(session, k.command(me))
+        self.memory = self.controller.start()
+        self.gone: set[int] = set()
+        self.heard: dict[int, dict[int, AgentState]] = defaultdict(dict)
+        self.pending: tuple[Sensing, AgentState] | None = None
+        self.token = session.liveliness().declare_token(k.alive_agent(me))
+
+    def _await_world(self) -> None:
+        deadline = time.monotonic() + self.options.start_timeout
+        while True:
+            arrival = self.inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
+            if arrival is None:
+                raise AgentAbort(
+                    f"no world for run {self.options.run!r} after {self.options.start_timeout:g} s"
+                )
+            if arrival.kind == "up":
+                return
+
+    def run(self) -> None:
+        """Serve ticks until the world goes away."""
+        while True:
+            arrival = self.inbox.wait()
+            if arrival.kind == "down" and arrival.key == self.keys.alive_world:
+                return
+            self._take(arrival)
+            self._maybe_act()
+
+    def _take(self, arrival: Arrival) -> None:
+        if arrival.kind == "down":
+            j = agent_of(arrival.key)
+            if j is not None and j != self.options.agent_id:
+                self.gone.add(j)
+            return
+        if arrival.kind != "data":
+            return
+        try:
+            if arrival.key.endswith("/sensing"):
+                self._sensed(codec.decode_sensing(arrival.payload))
+            else:
+                state = codec.decode_state(arrival.payload)
+                if state.agent_id != agent_of(arrival.key):
+                    raise DecodeError(f"state of agent {state.agent_id} on another agent's key")
+                self.heard[state.tick][state.agent_id] = state
+        except DecodeError as exc:
+            self.dropped += 1
+            if self.dropped <= 10:
+                warn(
+                    f"agent {self.options.agent_id}: dropped a bad message on {arrival.key}: {exc}"
+                )
+
+    def _sensed(self, sensing: Sensing) -> None:
+        if len(sensing.position) != self.controller.config.dim:
+            raise DecodeError(f"sensing position has {len(sensing.position)} coordinates")
+        if self.pending is not None:
+            raise DecodeError(
+                f"sensing of tick {sensing.tick} before tick {self.pending[0].tick} was answered"
+            )
+        self.memory, state = self.controller.announce(self.memory, sensing)
+        self.state_out.put(codec.encode_state(state))
+        self.pending = (sensing, state)
+
+    def _maybe_act(self) -> None:
+        if self.pending is None:
+            return
+        sensing, state = self.pending
+        heard = self.heard[sensing.tick]
+        needed = [j for j in self.controller.listens_to if j not in self.gone]
+        if any(j not in heard for j in needed):
+            return
+        self.memory, command = self.controller.act(
+            self.memory, sensing, {j: heard[j] for j in needed}
+        )
+        self.command_out.put(codec.encode_report(state, command))
+        self.pending = None
+        for tick in [t for t in self.heard if t <= sensing.tick]:
+            del self.heard[tick]

@@ -1,0 +1,360 @@
+"""msgpack encoding of every message on the wire, with a schema version.
+
+Every message is a msgpack map with ``v`` (schema version) and ``k`` (kind). Floats travel as
+float64, so a position round-trips bit for bit. Decoding validates everything — kind, version,
+types, lengths, finiteness — and raises :class:`~bus.errors.DecodeError` on any deviation; a
+receiver counts and drops such messages and never crashes on them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
+
+import msgpack
+
+from bus.errors import DecodeError
+from bus.types import (
+    AgentConfig,
+    AgentState,
+    Command,
+    ControlParams,
+    Event,
+    PathSpec,
+    Reshape,
+    Sensing,
+    Sinusoid,
+    TickRecord,
+    Vector,
+    Waypoints,
+)
+
+SCHEMA = 1
+T = TypeVar("T")
+
+
+def _pack(kind: str, body: dict[str, Any]) -> bytes:
+    return bytes(msgpack.packb({"v": SCHEMA, "k": kind, **body}, use_bin_type=True))
+
+
+def _unpack(kind: str, data: bytes) -> Mapping[str, Any]:
+    try:
+        msg = msgpack.unpackb(data, raw=False, strict_map_key=True)
+    except Exception as exc:  # msgpack raises several unrelated types on garbage
+        raise DecodeError(f"{kind}: not msgpack ({type(exc).__name__})") from None
+    if not isinstance(msg, dict):
+        raise DecodeError(f"{kind}: expected a map, got {type(msg).__name__}")
+    if msg.get("v") != SCHEMA:
+        raise DecodeError(f"{kind}: schema version {msg.get('v')!r}, this build speaks {SCHEMA}")
+    if msg.get("k") != kind:
+        raise DecodeError(f"expected a {kind} message, got kind {msg.get('k')!r}")
+    return msg
+
+
+def _get(msg: Mapping[str, Any], name: str, check: Callable[[Any, str], T]) -> T:
+    if name not in msg:
+        raise DecodeError(f"{msg.get('k')}: missing field {name!r}")
+    return check(msg[name], f"{msg.get('k')}.{name}")
+
+
+def _int(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise DecodeError(f"{where}: expected an integer, got {type(value).__name__}")
+    return value
+
+
+def _bool(value: Any, where: str) -> bool:
+    if not isinstance(value, bool):
+        raise DecodeError(f"{where}: expected true/false, got {type(value).__name__}")
+    return value
+
+
+def _str(value: Any, where: str) -> str:
+    if not isinstance(value, str):
+        raise DecodeError(f"{where}: expected a string, got {type(value).__name__}")
+    return value
+
+
+def _float(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise DecodeError(f"{where}: expected a number, got {type(value).__name__}")
+    if not math.isfinite(value):
+        raise DecodeError(f"{where}: {value!r} is not finite")
+    return float(value)
+
+
+def _list(value: Any, where: str) -> list[Any]:
+    if not isinstance(value, list):
+        raise DecodeError(f"{where}: expected a list, got {type(value).__name__}")
+    return value
+
+
+def _vector(value: Any, where: str) -> Vector:
+    items = _list(value, where)
+    if len(items) not in (2, 3):
+        raise DecodeError(f"{where}: expected 2 or 3 coordinates, got {len(items)}")
+    return tuple(_float(x, where) for x in items)
+
+
+def _vectors(value: Any, where: str) -> tuple[Vector, ...]:
+    return tuple(_vector(v, where) for v in _list(value, where))
+
+
+def _floats(value: Any, where: str) -> tuple[float, ...]:
+    return tuple(_float(x, where) for x in _list(value, where))
+
+
+def _ints(value: Any, where: str) -> tuple[int, ...]:
+    return tuple(_int(x, where) for x in _list(value, where))
+
+
+def _bools(value: Any, where: str) -> tuple[bool, ...]:
+    return tuple(_bool(x, where) for x in _list(value, where))
+
+
+def _map(value: Any, where: str) -> Mapping[str, Any]:
+    if not isinstance(value, dict):
+        raise DecodeError(f"{where}: expected a map, got {type(value).__name__}")
+    return value
+
+
+# -- world → agent ------------------------------------------------------------------------------
+
+
+def encode_sensing(s: Sensing) -> bytes:
+    return _pack(
+        "sensing",
+        {
+            "tick": s.tick,
+            "pos": list(s.position),
+            "oid": list(s.obstacle_ids),
+            "oc": [list(c) for c in s.obstacle_centres],
+            "or": list(s.obstacle_radii),
+        },
+    )
+
+
+def decode_sensing(data: bytes) -> Sensing:
+    m = _unpack("sensing", data)
+    s = Sensing(
+        tick=_get(m, "tick", _int),
+        position=_get(m, "pos", _vector),
+        obstacle_ids=_get(m, "oid", _ints),
+        obstacle_centres=_get(m, "oc", _vectors),
+        obstacle_radii=_get(m, "or", _floats),
+    )
+    if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
+        raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
+    return s
+
+
+# -- agent → neighbours -------------------------------------------------------------------------
+
+
+def _state_body(s: AgentState) -> dict[str, Any]:
+    return {
+        "id": s.agent_id,
+        "tick": s.tick,
+        "pos": list(s.position),
+        "omega": s.omega,
+        "bid": s.bid,
+        "sigma": s.sigma,
+        "theta": s.theta,
+    }
+
+
+def _state_from(m: Mapping[str, Any]) -> AgentState:
+    return AgentState(
+        agent_id=_get(m, "id", _int),
+        tick=_get(m, "tick", _int),
+        position=_get(m, "pos", _vector),
+        omega=_get(m, "omega", _bool),
+        bid=_get(m, "bid", _float),
+        sigma=_get(m, "sigma", _float),
+        theta=_get(m, "theta", _float),
+    )
+
+
+def encode_state(s: AgentState) -> bytes:
+    return _pack("state", _state_body(s))
+
+
+def decode_state(data: bytes) -> AgentState:
+    return _state_from(_unpack("state", data))
+
+
+# -- agent → world ------------------------------------------------------------------------------
+
+
+def encode_report(state: AgentState, command: Command) -> bytes:
+    """The command of a tick, carrying what the agent announced that tick (for the record)."""
+    return _pack("cmd", {**_state_body(state), "vel": list(command.velocity)})
+
+
+def decode_report(data: bytes) -> tuple[AgentState, Command]:
+    m = _unpack("cmd", data)
+    state = _state_from(m)
+    command = Command(state.agent_id, state.tick, _get(m, "vel", _vector))
+    return state, command
+
+
+# -- configuration ------------------------------------------------------------------------------
+
+
+def _path_body(p: PathSpec | None) -> dict[str, Any] | None:
+    if p is None:
+        return None
+    if isinstance(p, Waypoints):
+        return {"type": "waypoints", "points": [list(x) for x in p.points], "speed": p.speed}
+    return {
+        "type": "sinusoid",
+        "start": list(p.start),
+        "direction": list(p.direction),
+        "normal": list(p.normal),
+        "speed": p.speed,
+        "amplitude": p.amplitude,
+        "period": p.period,
+    }
+
+
+def _path_from(value: Any, where: str) -> PathSpec | None:
+    if value is None:
+        return None
+    m = _map(value, where)
+    kind = m.get("type")
+    if kind == "waypoints":
+        return Waypoints(
+            points=_vectors(m.get("points"), f"{where}.points"),
+            speed=_float(m.get("speed"), f"{where}.speed"),
+        )
+    if kind == "sinusoid":
+        return Sinusoid(
+            start=_vector(m.get("start"), f"{where}.start"),
+            direction=_vector(m.get("direction"), f"{where}.direction"),
+            normal=_vector(m.get("normal"), f"{where}.normal"),
+            speed=_float(m.get("speed"), f"{where}.speed"),
+            amplitude=_float(m.get("amplitude"), f"{where}.amplitude"),
+            period=_float(m.get("period"), f"{where}.period"),
+        )
+    raise DecodeError(f"{where}.type: unknown path type {kind!r}")
+
+
+_PARAMS = (
+    "alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "safety_margin",
+    "heading_tau", "sigma_max", "boundary_layer",
+)  # fmt: skip
+
+
+def encode_config(c: AgentConfig) -> bytes:
+    p = c.params
+    return _pack(
+        "config",
+        {
+            "id": c.agent_id,
+            "dim": c.dim,
+            "dt": c.dt,
+            "params": {**{k: getattr(p, k) for k in _PARAMS}, "rounds": p.rounds},
+            "senses": list(c.senses),
+            "talks_to": list(c.talks_to),
+            "offset": list(c.offset),
+            "neighbour_offsets": [list(o) for o in c.neighbour_offsets],
+            "formation_radius": c.formation_radius,
+            "path": _path_body(c.path),
+            "reshapes": [[r.tick, r.scale, r.rotate] for r in c.reshapes],
+        },
+    )
+
+
+def decode_config(data: bytes) -> AgentConfig:
+    m = _unpack("config", data)
+    pm = _get(m, "params", _map)
+    params = ControlParams(
+        **{k: _get(pm, k, _float) for k in _PARAMS},
+        rounds=_get(pm, "rounds", _int),
+    )
+    reshapes = []
+    for r in _get(m, "reshapes", _list):
+        items = _list(r, "config.reshapes")
+        if len(items) != 3:
+            raise DecodeError("config.reshapes: expected [tick, scale, rotate]")
+        reshapes.append(
+            Reshape(
+                _int(items[0], "config.reshapes"),
+                _float(items[1], "config.reshapes"),
+                _float(items[2], "config.reshapes"),
+            )
+        )
+    return AgentConfig(
+        agent_id=_get(m, "id", _int),
+        dim=_get(m, "dim", _int),
+        dt=_get(m, "dt", _float),
+        params=params,
+        senses=_get(m, "senses", _ints),
+        talks_to=_get(m, "talks_to", _ints),
+        offset=_get(m, "offset", _vector),
+        neighbour_offsets=_get(m, "neighbour_offsets", _vectors),
+        formation_radius=_get(m, "formation_radius", _float),
+        path=_path_from(m.get("path"), "config.path"),
+        reshapes=tuple(reshapes),
+    )
+
+
+# -- world → all --------------------------------------------------------------------------------
+
+
+def encode_tick(t: TickRecord) -> bytes:
+    return _pack(
+        "tick",
+        {
+            "tick": t.tick,
+            "pos": [list(p) for p in t.positions],
+            "vel": [list(v) for v in t.velocities],
+            "omega": list(t.omega),
+            "bid": list(t.bid),
+            "sigma": list(t.sigma),
+            "theta": list(t.theta),
+            "alive": list(t.alive),
+        },
+    )
+
+
+def decode_tick(data: bytes) -> TickRecord:
+    m = _unpack("tick", data)
+    t = TickRecord(
+        tick=_get(m, "tick", _int),
+        positions=_get(m, "pos", _vectors),
+        velocities=_get(m, "vel", _vectors),
+        omega=_get(m, "omega", _bools),
+        bid=_get(m, "bid", _floats),
+        sigma=_get(m, "sigma", _floats),
+        theta=_get(m, "theta", _floats),
+        alive=_get(m, "alive", _bools),
+    )
+    n = len(t.positions)
+    if any(len(x) != n for x in (t.velocities, t.omega, t.bid, t.sigma, t.theta, t.alive)):
+        raise DecodeError("tick: per-agent fields differ in length")
+    return t
+
+
+def encode_event(e: Event) -> bytes:
+    return _pack("event", {"tick": e.tick, "level": e.level, "agent": e.agent, "text": e.text})
+
+
+def decode_event(data: bytes) -> Event:
+    m = _unpack("event", data)
+    return Event(
+        tick=_get(m, "tick", _int),
+        level=_get(m, "level", _int),
+        agent=_get(m, "agent", _int),
+        text=_get(m, "text", _str),
+    )
+
+
+def encode_document(kind: str, body: Mapping[str, Any]) -> bytes:
+    """A free-form map (``summary``, ``scenario``) of strings, numbers, booleans and None."""
+    return _pack(kind, {"body": dict(body)})
+
+
+def decode_document(kind: str, data: bytes) -> dict[str, Any]:
+    return dict(_get(_unpack(kind, data), "body", _map))

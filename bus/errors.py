@@ -1,0 +1,16 @@
+"""Errors raised by the bus package."""
+
+from __future__ import annotations
+
+
+class BusError(Exception):
+    """Base of every error the bus package raises."""
+
+
+class WireError(BusError, ValueError):
+    """Something that cannot go on the wire as asked (a bad run id, an unknown kind)."""
+
+
+class DecodeError(WireError):
+    """A message that is not what its key promises: not msgpack, wrong kind or schema version,
+    wrong types, non-finite numbers. Receivers count and drop these."""

@@ -1,0 +1,42 @@
+"""Declaring Zenoh entities the way every shoal process needs them.
+
+Publishers block rather than drop under congestion: a lockstep protocol that lost a message
+would wait for it forever (Zenoh's default is DROP). Subscribers and presence watchers feed one
+:class:`~bus.runtime.Inbox`; the returned objects must be kept alive by the caller (Zenoh
+undeclares an entity when its Python object is collected).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import zenoh
+
+from bus.runtime import Arrival, Inbox
+
+
+def publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
+    return session.declare_publisher(
+        key,
+        congestion_control=zenoh.CongestionControl.BLOCK,
+        reliability=zenoh.Reliability.RELIABLE,
+    )
+
+
+def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
+    def arrived(sample: zenoh.Sample) -> None:
+        inbox.put(Arrival("data", str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
+
+    return session.declare_subscriber(key, arrived)
+
+
+def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
+    """Report every liveliness token matching ``key`` as "up" (including those already there)
+    and "down" when it vanishes (undeclared, session closed, or the process killed)."""
+
+    def changed(sample: zenoh.Sample) -> None:
+        kind = "up" if sample.kind == zenoh.SampleKind.PUT else "down"
+        inbox.put(Arrival(kind, str(sample.key_expr)))
+
+    return session.liveliness().declare_subscriber(key, changed, history=True)

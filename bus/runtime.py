@@ -1,0 +1,63 @@
+"""Process plumbing shared by every shoal process: signals, readiness, the inbox."""
+
+from __future__ import annotations
+
+import queue
+import signal
+import sys
+from dataclasses import dataclass
+from types import FrameType
+
+
+def exit_on_signals() -> None:
+    """Turn SIGTERM (docker stop, a supervisor) and SIGINT into SystemExit, so ``with`` blocks
+    and ``finally`` clauses run: sessions close, tokens vanish, log files get finished."""
+
+    def stop(signum: int, _frame: FrameType | None) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+
+
+def announce_ready(what: str) -> None:
+    """Tell a supervising parent on stdout that this process is up (one line, flushed)."""
+    print(f"ready {what}", flush=True)
+
+
+@dataclass(frozen=True, slots=True)
+class Arrival:
+    """Something a Zenoh callback handed to the process's main loop.
+
+    kind: "data" (a sample), "up" / "down" (a liveliness token appeared / vanished).
+    """
+
+    kind: str
+    key: str
+    payload: bytes = b""
+    time_ns: int = 0  # wall clock at arrival, ns since the epoch
+
+
+class Inbox:
+    """A thread-safe queue between Zenoh's callback threads and a process's single main loop:
+    callbacks only enqueue; all state lives in the main loop."""
+
+    def __init__(self) -> None:
+        self._q: queue.Queue[Arrival] = queue.Queue()
+
+    def put(self, arrival: Arrival) -> None:
+        self._q.put(arrival)
+
+    def wait(self) -> Arrival:
+        """The next arrival, however long it takes."""
+        return self._q.get()
+
+    def get(self, timeout: float | None) -> Arrival | None:
+        try:
+            return self._q.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+
+def warn(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)

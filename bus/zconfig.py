@@ -1,0 +1,61 @@
+"""The one place that builds a Zenoh configuration.
+
+Order of precedence, lowest first: Zenoh's defaults; a config file (``--zenoh-config`` or the
+``ZENOH_CONFIG`` environment variable, as zenoh itself reads it); ``ZENOH_CONFIG_OVERRIDE``
+(``key=json5;key=json5``, rmw_zenoh's convention); then what shoal sets explicitly: the mode,
+the connect and listen endpoints, and multicast scouting, which is off unless asked for.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import zenoh
+
+from bus.errors import WireError
+
+MODES = ("client", "peer", "router")
+
+
+def zenoh_config(
+    *,
+    mode: str,
+    connect: Sequence[str] = (),
+    listen: Sequence[str] = (),
+    config_file: Path | None = None,
+    multicast: bool = False,
+) -> zenoh.Config:
+    """A Zenoh configuration for a shoal process."""
+    if mode not in MODES:
+        raise WireError(f"zenoh mode {mode!r}: use one of {', '.join(MODES)}")
+    path = config_file or (
+        Path(os.environ["ZENOH_CONFIG"]) if os.environ.get("ZENOH_CONFIG") else None
+    )
+    try:
+        conf = zenoh.Config.from_file(str(path)) if path else zenoh.Config()
+    except Exception as exc:  # zenoh raises its own ZError for unreadable files
+        raise WireError(f"zenoh config {path}: {exc}") from None
+    for item in filter(None, os.environ.get("ZENOH_CONFIG_OVERRIDE", "").split(";")):
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise WireError(f"ZENOH_CONFIG_OVERRIDE: {item!r} is not key=json5")
+        _insert(conf, key.strip(), value.strip())
+    _insert(conf, "mode", json.dumps(mode))
+    if connect:
+        _insert(conf, "connect/endpoints", json.dumps(list(connect)))
+    if listen:
+        _insert(conf, "listen/endpoints", json.dumps(list(listen)))
+    _insert(conf, "scouting/multicast/enabled", json.dumps(multicast))
+    if mode == "router":
+        _insert(conf, "scouting/delay", "0")  # else a router's open() blocks 500 ms
+    return conf
+
+
+def _insert(conf: zenoh.Config, key: str, value: str) -> None:
+    try:
+        conf.insert_json5(key, value)
+    except Exception as exc:
+        raise WireError(f"zenoh config {key} = {value}: {exc}") from None

@@ -1,0 +1,37 @@
+"""``shoal agent``: one agent process."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from agent.process import AgentAbort, AgentNode, AgentOptions
+from bus.runtime import exit_on_signals, warn
+from tools.options import bus_options, client_config, open_session
+
+
+@click.command()
+@click.option("--id", "agent_id", type=click.IntRange(min=1), required=True, help="Agent id.")
+@bus_options
+@click.option("--start-timeout", default=60.0, help="Seconds to wait for the world.")
+def agent(
+    agent_id: int,
+    run_id: str,
+    connect: tuple[str, ...],
+    zenoh_config: Path | None,
+    multicast: bool,
+    start_timeout: float,
+) -> None:
+    """Run agent ID of run RUN: fetch its configuration from the world and follow the laws."""
+    exit_on_signals()
+    options = AgentOptions(run=run_id, agent_id=agent_id, start_timeout=start_timeout)
+    conf = client_config(connect, zenoh_config, multicast)
+    with open_session(conf, f"agent {agent_id}") as session:
+        try:
+            node = AgentNode(options, session)
+        except AgentAbort as exc:
+            raise click.ClickException(str(exc)) from None
+        node.run()
+        if node.dropped:
+            warn(f"agent {agent_id}: {node.dropped} bad messages dropped")

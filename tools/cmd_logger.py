@@ -1,0 +1,26 @@
+"""``shoal logger``: record a run into an MCAP file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from bus.runtime import exit_on_signals
+from tools.logger import run_logger
+from tools.options import bus_options, client_config, open_session
+
+
+@click.command()
+@click.option(
+    "--out", "-o", type=click.Path(dir_okay=False, path_type=Path), required=True, help="MCAP file."
+)
+@bus_options
+def logger(
+    out: Path, run_id: str, connect: tuple[str, ...], zenoh_config: Path | None, multicast: bool
+) -> None:
+    """Record every message of run RUN into OUT until the run ends (or SIGINT/SIGTERM)."""
+    exit_on_signals()
+    with open_session(client_config(connect, zenoh_config, multicast), "logger") as session:
+        count = run_logger(session, run=run_id, out=out)
+    click.echo(f"{count} messages written to {out}", err=True)

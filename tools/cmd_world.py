@@ -1,0 +1,48 @@
+"""``shoal world``: the world process of a run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from bus.runtime import exit_on_signals
+from tools.cmd_simulate import json_safe, load_for_cli
+from tools.options import bus_options, client_config, open_session
+from tools.report import render_summary
+from world.process import World, WorldAbort, WorldOptions
+
+
+@click.command()
+@click.argument("scenario", default="default")
+@bus_options
+@click.option(
+    "--expect",
+    multiple=True,
+    help="Also wait for this process's token before tick 0 (logger, monitor; repeatable).",
+)
+@click.option("--start-timeout", default=60.0, help="Seconds to wait for every agent.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def world(
+    scenario: str,
+    run_id: str,
+    connect: tuple[str, ...],
+    zenoh_config: Path | None,
+    multicast: bool,
+    expect: tuple[str, ...],
+    start_timeout: float,
+    as_json: bool,
+) -> None:
+    """Simulate kinematics and sensing for the agents of run RUN, in lockstep."""
+    exit_on_signals()
+    scn = load_for_cli(scenario)
+    options = WorldOptions(run=run_id, expect=expect, start_timeout=start_timeout)
+    with open_session(client_config(connect, zenoh_config, multicast), "world") as session:
+        w = World(scn, options, session)
+        try:
+            w.wait_for_everyone()
+            summary = json_safe(w.run().as_dict())
+        except WorldAbort as exc:
+            raise click.ClickException(str(exc)) from None
+    click.echo(json.dumps(summary) if as_json else render_summary(summary))

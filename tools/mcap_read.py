@@ -1,0 +1,60 @@
+"""Reading a run back from its MCAP file."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.reader import make_reader
+
+from bus import codec
+from bus.types import TickRecord
+from world.trajectory import Trajectory
+
+
+def iter_channel(path: Path, topic_suffix: str) -> Iterator[tuple[str, bytes, int]]:
+    """(topic, payload, log_time_ns) of every message whose topic ends with ``topic_suffix``,
+    in log-time order."""
+    with path.open("rb") as f:
+        reader = make_reader(f)
+        topics = [c.topic for c in reader.get_summary().channels.values()]  # type: ignore[union-attr]
+        wanted = [t for t in topics if t.endswith(topic_suffix)]
+        for _schema, channel, message in reader.iter_messages(topics=wanted):
+            yield channel.topic, message.data, message.log_time
+
+
+def read_ticks(path: Path) -> list[TickRecord]:
+    """Every tick record of the run, in tick order."""
+    records = [codec.decode_tick(data) for _t, data, _ns in iter_channel(path, "/world/tick")]
+    return sorted(records, key=lambda r: r.tick)
+
+
+def read_trajectory(path: Path, *, dt: float) -> Trajectory:
+    """The run's trajectory as the world recorded it; the last positions are integrated from
+    the last record exactly as the world does (positions + dt * velocities)."""
+    records = read_ticks(path)
+    if not records:
+        raise ValueError(f"{path}: no tick records")
+    positions = np.asarray([r.positions for r in records], dtype=np.float64)
+    velocities = np.asarray([r.velocities for r in records], dtype=np.float64)
+    final = positions[-1] + dt * velocities[-1]
+    return Trajectory(
+        dt=dt,
+        positions=np.concatenate([positions, final[None]]),
+        velocities=velocities,
+        omega=np.asarray([r.omega for r in records], dtype=bool),
+        bid=np.asarray([r.bid for r in records], dtype=np.float64),
+        sigma=np.asarray([r.sigma for r in records], dtype=np.float64),
+        theta=np.asarray([r.theta for r in records], dtype=np.float64),
+    )
+
+
+def read_documents(path: Path) -> dict[str, dict[str, Any]]:
+    """The scenario and summary documents the world published, by kind."""
+    docs: dict[str, dict[str, Any]] = {}
+    for kind in ("scenario", "summary"):
+        for _topic, data, _ns in iter_channel(path, f"/world/{kind}"):
+            docs[kind] = codec.decode_document(kind, data)
+    return docs

@@ -1,0 +1,56 @@
+"""Options shared by the process commands (router, world, agent, logger, run)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import click
+import zenoh
+
+from bus.errors import WireError
+from bus.zconfig import zenoh_config
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def bus_options(func: F) -> F:
+    """--run, --connect, --zenoh-config, --multicast."""
+    func = click.option(
+        "--multicast", is_flag=True, help="Allow Zenoh multicast scouting (off by default)."
+    )(func)
+    func = click.option(
+        "--zenoh-config",
+        type=click.Path(exists=True, dir_okay=False, path_type=Path),
+        help="A Zenoh JSON5 config file (ZENOH_CONFIG is honoured too).",
+    )(func)
+    func = click.option(
+        "--connect",
+        "-e",
+        multiple=True,
+        help="Zenoh endpoint of the router, e.g. tcp/127.0.0.1:7447 (repeatable).",
+    )(func)
+    func = click.option("--run", "run_id", required=True, help="The run id every key lives under.")(
+        func
+    )
+    return func
+
+
+def client_config(
+    connect: tuple[str, ...], zenoh_config_file: Path | None, multicast: bool
+) -> zenoh.Config:
+    """A client session's configuration, with errors a person can act on."""
+    try:
+        return zenoh_config(
+            mode="client", connect=connect, config_file=zenoh_config_file, multicast=multicast
+        )
+    except WireError as exc:
+        raise click.ClickException(str(exc)) from None
+
+
+def open_session(conf: zenoh.Config, what: str) -> zenoh.Session:
+    try:
+        return zenoh.open(conf)
+    except Exception as exc:  # zenoh.ZError: e.g. no router at the endpoint
+        raise click.ClickException(f"{what}: cannot open a Zenoh session: {exc}") from None

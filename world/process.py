@@ -1,0 +1,196 @@
+"""The world process: the lockstep clock, kinematics and sensing for every agent, over Zenoh.
+
+A thin loop around :func:`world.kinematics.sensing_for` and :func:`world.kinematics.integrate`:
+each tick it sends every live agent its sensing, waits until every live agent's command for the
+tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
+configuration (a queryable) and follows agents' presence by liveliness: an agent whose token
+vanishes is held still from then on, its departure logged, and the run goes on without it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import zenoh
+
+from bus import codec
+from bus.errors import DecodeError
+from bus.keys import Keys, agent_of
+from bus.links import publisher, subscribe, watch_presence
+from bus.runtime import Arrival, Inbox, warn
+from bus.types import AgentState, Command, Event, TickRecord
+from world.kinematics import integrate, sensing_for
+from world.metrics import Summary, summarize
+from world.scenario import Scenario
+from world.trajectory import Trajectory
+
+
+class WorldAbort(RuntimeError):
+    """The run cannot go on (agents never came up, or stopped answering)."""
+
+
+@dataclass(frozen=True)
+class WorldOptions:
+    run: str
+    expect: tuple[str, ...] = ()  # other processes (logger, monitor) to wait for
+    start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
+    answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
+
+
+class World:
+    """The world's state between ticks; Zenoh I/O goes through ``session`` only."""
+
+    def __init__(self, scenario: Scenario, options: WorldOptions, session: zenoh.Session) -> None:
+        self.scenario = scenario
+        self.options = options
+        self.keys = Keys(options.run)
+        self.session = session
+        self.inbox = Inbox()
+        self.dropped = 0  # malformed or stale messages counted and dropped
+        self.alive = set(range(1, scenario.n + 1))
+        self.up: set[str] = set()
+        configs = {i: codec.encode_config(scenario.agent_config(i)) for i in self.alive}
+
+        def serve(query: zenoh.Query) -> None:
+            with query:
+                last = str(query.key_expr).rsplit("/", 1)[-1]
+                i = int(last) if last.isascii() and last.isdigit() else None
+                if i in configs:
+                    query.reply(self.keys.config(i), configs[i])
+
+        k = self.keys
+        if any(r.ok is not None for r in session.liveliness().get(k.alive_world, timeout=1.0)):
+            raise WorldAbort(f"another world already serves run {options.run!r}")
+        self._held = [
+            session.declare_queryable(k.configs, serve),
+            subscribe(session, k.commands, self.inbox),
+            watch_presence(session, k.alive_everyone, self.inbox),
+        ]
+        self.sensing_out = {i: publisher(session, k.sensing(i)) for i in self.alive}
+        self.tick_out = publisher(session, k.tick)
+        self.event_out = publisher(session, k.event)
+        self.summary_out = publisher(session, k.summary)
+        self.scenario_out = publisher(session, k.scenario)
+        self.token = session.liveliness().declare_token(k.alive_world)
+
+    # -- start ----------------------------------------------------------------------------------
+
+    def wait_for_everyone(self) -> None:
+        """Block until every agent (and the logger, if expected) holds a liveliness token."""
+        k = self.keys
+        wanted = {k.alive_agent(i) for i in self.alive}
+        wanted |= {k.alive_process(name) for name in self.options.expect}
+        deadline = time.monotonic() + self.options.start_timeout
+        while not wanted <= self.up:
+            left = deadline - time.monotonic()
+            arrival = self.inbox.get(timeout=max(left, 0.0)) if left > 0 else None
+            if arrival is None:
+                missing = ", ".join(sorted(wanted - self.up))
+                raise WorldAbort(f"not up after {self.options.start_timeout:g} s: {missing}")
+            self._note_presence(arrival)
+        self.scenario_out.put(
+            codec.encode_document(
+                "scenario", {"name": self.scenario.name, "yaml": self.scenario.source}
+            )
+        )
+
+    # -- ticks ----------------------------------------------------------------------------------
+
+    def run(self) -> Summary:
+        s = self.scenario
+        n, dim = s.n, s.dim
+        centres, radii = s.obstacle_centres, s.obstacle_radii
+        positions = s.initial_positions
+        history: dict[str, list[Any]] = {
+            name: [] for name in ("pos", "vel", "omega", "bid", "sigma", "theta")
+        }
+        for k in range(s.steps):
+            for i in sorted(self.alive):
+                sensing = sensing_for(k, positions[i - 1], centres, radii, s.control.sensing_radius)
+                self.sensing_out[i].put(codec.encode_sensing(sensing))
+            reports = self._collect(k)
+            velocities = np.zeros((n, dim))
+            omega, bid = [False] * n, [1.0] * n
+            sigma, theta = [1.0] * n, [0.0] * n
+            for i, (state, command) in reports.items():
+                velocities[i - 1] = command.velocity
+                omega[i - 1], bid[i - 1] = state.omega, state.bid
+                sigma[i - 1], theta[i - 1] = state.sigma, state.theta
+            record = TickRecord(
+                tick=k,
+                positions=tuple(tuple(float(x) for x in p) for p in positions),
+                velocities=tuple(tuple(float(x) for x in v) for v in velocities),
+                omega=tuple(omega),
+                bid=tuple(bid),
+                sigma=tuple(sigma),
+                theta=tuple(theta),
+                alive=tuple(i in self.alive for i in range(1, n + 1)),
+            )
+            self.tick_out.put(codec.encode_tick(record))
+            for name, value in zip(
+                history, (positions, velocities, omega, bid, sigma, theta), strict=True
+            ):
+                history[name].append(value)
+            positions = integrate(positions, velocities, s.dt)
+        history["pos"].append(positions)
+        traj = Trajectory(
+            dt=s.dt,
+            positions=np.asarray(history["pos"]),
+            velocities=np.asarray(history["vel"]),
+            omega=np.asarray(history["omega"], dtype=bool),
+            bid=np.asarray(history["bid"]),
+            sigma=np.asarray(history["sigma"]),
+            theta=np.asarray(history["theta"]),
+        )
+        summary = summarize(s, traj)
+        self._event(s.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped")
+        self.summary_out.put(codec.encode_document("summary", summary.as_dict()))
+        return summary
+
+    def _collect(self, k: int) -> dict[int, tuple[AgentState, Command]]:
+        """Wait until every live agent's report for tick k is in (or the agent is gone)."""
+        reports: dict[int, tuple[AgentState, Command]] = {}
+        while not self.alive <= reports.keys():
+            arrival = self.inbox.get(timeout=self.options.answer_timeout)
+            if arrival is None:
+                silent = ", ".join(str(i) for i in sorted(self.alive - reports.keys()))
+                raise WorldAbort(f"tick {k}: no command from agent(s) {silent} in time")
+            if arrival.kind != "data":
+                self._note_presence(arrival, tick=k)
+                continue
+            try:
+                state, command = codec.decode_report(arrival.payload)
+            except DecodeError as exc:
+                self._drop(f"{arrival.key}: {exc}")
+                continue
+            if command.agent_id != agent_of(arrival.key) or command.tick != k:
+                self._drop(f"{arrival.key}: agent {command.agent_id} tick {command.tick}")
+                continue
+            if len(command.velocity) != self.scenario.dim:
+                self._drop(f"{arrival.key}: velocity has {len(command.velocity)} coordinates")
+                continue
+            if command.agent_id in self.alive:
+                reports[command.agent_id] = (state, command)
+        return reports
+
+    def _note_presence(self, arrival: Arrival, *, tick: int = 0) -> None:
+        if arrival.kind == "up":
+            self.up.add(arrival.key)
+        elif arrival.kind == "down":
+            self.up.discard(arrival.key)
+            i = agent_of(arrival.key)
+            if i in self.alive and arrival.key == self.keys.alive_agent(i):
+                self.alive.discard(i)
+                self._event(tick, 3, i, f"agent {i} gone at tick {tick}; held still from now on")
+
+    def _drop(self, why: str) -> None:
+        self.dropped += 1
+        if self.dropped <= 10:
+            warn(f"world: dropped a bad message ({why})")
+
+    def _event(self, tick: int, level: int, agent: int, text: str) -> None:
+        self.event_out.put(codec.encode_event(Event(tick, level, agent, text)))
+        warn(f"world: {text}")
