@@ -10,6 +10,7 @@ import numpy as np
 from mcap.reader import make_reader
 
 from bus import codec
+from bus.errors import DecodeError
 from bus.types import TickRecord
 from world.trajectory import Trajectory
 
@@ -26,8 +27,14 @@ def iter_channel(path: Path, topic_suffix: str) -> Iterator[tuple[str, bytes, in
 
 
 def read_ticks(path: Path) -> list[TickRecord]:
-    """Every tick record of the run, in tick order."""
-    records = [codec.decode_tick(data) for _t, data, _ns in iter_channel(path, "/world/tick")]
+    """Every tick record of the run, in tick order. Messages on the tick channel that do not
+    decode (someone else's garbage on the run's key) are skipped."""
+    records = []
+    for _topic, data, _ns in iter_channel(path, "/world/tick"):
+        try:
+            records.append(codec.decode_tick(data))
+        except DecodeError:
+            continue
     return sorted(records, key=lambda r: r.tick)
 
 

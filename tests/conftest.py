@@ -1,0 +1,110 @@
+"""Fixtures for multi-process tests: a real Zenoh router on a free loopback port, client
+sessions with multicast scouting off, and helpers that wait on the bus, never on the clock."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+
+from bus import codec
+from bus.keys import Keys
+from bus.links import subscribe
+from bus.runtime import Inbox
+from bus.zconfig import zenoh_config
+from tools.cmd_run import free_port
+from tools.swarm import Swarm
+
+PYTHON = [sys.executable, "-m", "tools"]
+
+
+@pytest.fixture
+def router() -> Iterator[str]:
+    """The endpoint of a fresh router process on 127.0.0.1."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with Swarm() as swarm:
+        child = swarm.spawn("router", "router", ["router", "--listen", endpoint], ready_pipe=True)
+        swarm.wait_ready(child, 30.0)
+        yield endpoint
+
+
+@contextlib.contextmanager
+def client(endpoint: str) -> Iterator[zenoh.Session]:
+    with zenoh.open(zenoh_config(mode="client", connect=[endpoint])) as session:
+        yield session
+
+
+class Watcher:
+    """Follows a run's tick records from a test's own session."""
+
+    def __init__(self, session: zenoh.Session, run: str) -> None:
+        self.keys = Keys(run)
+        self.inbox = Inbox()
+        self._held = [
+            subscribe(session, self.keys.tick, self.inbox),
+            subscribe(session, self.keys.summary, self.inbox),
+        ]
+        self.last_tick = -1
+        self.summary: dict[str, Any] | None = None
+
+    def until_tick(self, tick: int, timeout: float = 120.0) -> None:
+        deadline = time.monotonic() + timeout
+        while self.last_tick < tick and self.summary is None:
+            arrival = self.inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
+            if arrival is None:
+                raise AssertionError(f"tick {tick} not reached in {timeout} s")
+            if arrival.key == self.keys.summary:
+                self.summary = codec.decode_document("summary", arrival.payload)
+            else:
+                self.last_tick = codec.decode_tick(arrival.payload).tick
+
+    def until_summary(self, timeout: float = 120.0) -> dict[str, Any]:
+        self.until_tick(10**12, timeout)
+        assert self.summary is not None
+        return self.summary
+
+
+def run_cli(args: list[str], timeout: float = 300.0) -> subprocess.CompletedProcess[str]:
+    proc = subprocess.run([*PYTHON, *args], capture_output=True, text=True, timeout=timeout)
+    if proc.returncode != 0:
+        print(proc.stdout, proc.stderr, sep="\n")
+    return proc
+
+
+def json_of(proc: subprocess.CompletedProcess[str]) -> dict[str, Any]:
+    return dict(json.loads(proc.stdout))
+
+
+def processes_mentioning(text: str) -> list[int]:
+    """Pids of live processes whose command line contains ``text`` (no psutil needed)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        with contextlib.suppress(OSError):
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+            state = (entry / "stat").read_text().split()[2]
+            if text in cmdline and state != "Z":
+                found.append(int(entry.name))
+    return found
+
+
+def stop(proc: subprocess.Popen[Any], timeout: float = 20.0) -> int:
+    """SIGTERM, wait, then SIGKILL: a test never leaves a process behind."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            return proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    return proc.wait()

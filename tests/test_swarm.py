@@ -1,0 +1,184 @@
+"""Multi-process integration: real OS processes, a real Zenoh router, loopback only.
+
+Readiness comes from liveliness tokens and the run's own tick records; nothing sleeps.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+from pathlib import Path
+
+import msgpack
+import pytest
+from conftest import PYTHON, Watcher, client, json_of, processes_mentioning, run_cli, stop
+from mcap.reader import make_reader
+
+from bus import codec
+from tools.cmd_simulate import json_safe
+from tools.mcap_read import iter_channel, read_trajectory
+from tools.simulator import simulate
+from tools.swarm import Swarm
+from world.loader import builtin_names, load_scenario
+from world.metrics import summarize
+
+pytestmark = pytest.mark.integration
+
+
+def short(tmp_path: Path, name: str = "sinusoid", duration: float = 4.0) -> Path:
+    """A built-in cut to ``duration`` seconds, as a file."""
+    text = load_scenario(name).source
+    lines = [
+        f"duration: {duration}" if line.startswith("duration:") else line
+        for line in text.splitlines()
+    ]
+    path = tmp_path / f"{name}-short.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def reference(scenario: str | Path) -> tuple[object, object]:
+    scn = load_scenario(scenario)
+    traj = simulate(scn)
+    return scn, traj
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_lockstep_run_equals_the_reference_simulator_bit_for_bit(name: str, tmp_path: Path) -> None:
+    out = tmp_path / "run.mcap"
+    proc = run_cli(["run", name, "--json", "--out", str(out)])
+    assert proc.returncode == 0
+    got = json_of(proc)
+    scn = load_scenario(name)
+    ref = simulate(scn)
+    assert read_trajectory(out, dt=scn.dt).equals(ref)
+    expected = json_safe(summarize(scn, ref).as_dict())
+    assert {k: got[k] for k in expected} == expected
+    assert got["mode"] == "lockstep" and got["wall_s"] > 0
+
+
+def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_path: Path) -> None:
+    scenario = short(tmp_path, "obstacles", duration=8.0)
+    run, out = "killone", tmp_path / "run.mcap"
+    common = ["--run", run, "--connect", router]
+    with Swarm() as swarm, client(router) as session:
+        watcher = Watcher(session, run)
+        token = session.liveliness().declare_token(watcher.keys.alive_process("monitor"))
+        logger = swarm.spawn(
+            "logger", "logger", ["logger", "--out", str(out), *common], ready_pipe=True
+        )
+        expect = ["--expect", "logger", "--expect", "monitor"]
+        world = swarm.spawn("world", "world", ["world", str(scenario), *common, *expect])
+        agents = [swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
+                  for i in range(1, 6)]  # fmt: skip
+        swarm.wait_ready(logger, 30)
+        watcher.until_tick(200)
+        os.kill(agents[2].popen.pid, signal.SIGKILL)  # follower 3
+        agents[2].done = True
+        summary = watcher.until_summary()
+        assert world.popen.wait(timeout=30) == 0
+        assert logger.popen.wait(timeout=30) == 0
+        for a in agents:
+            a.done = True
+            a.popen.wait(timeout=30)
+        del token
+    assert summary["steps"] == 800
+    assert [a.popen.returncode for a in agents if a is not agents[2]] == [0, 0, 0, 0]
+    events = [codec.decode_event(d) for _t, d, _ns in iter_channel(out, "/world/event")]
+    gone = [e for e in events if e.agent == 3 and "gone" in e.text]
+    assert len(gone) == 1 and gone[0].tick >= 200 and gone[0].level == 3
+    traj = read_trajectory(out, dt=0.01)
+    after = traj.positions[gone[0].tick + 1 :, 2]
+    assert (after == after[0]).all()  # held still from then on
+
+
+def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path) -> None:
+    scenario = short(tmp_path, "sinusoid", duration=4.0)
+    outs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
+    procs = [
+        subprocess.Popen(
+            [*PYTHON, "run", str(scenario), "--connect", router, "--json", "--out", str(o)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for o in outs
+    ]
+    try:
+        results = [p.communicate(timeout=240) for p in procs]
+    finally:
+        for p in procs:
+            stop(p)
+    assert [p.returncode for p in procs] == [0, 0], results
+    scn = load_scenario(scenario)
+    ref = simulate(scn)
+    for out in outs:
+        assert read_trajectory(out, dt=scn.dt).equals(ref)
+        with out.open("rb") as f:
+            topics = {c.topic for c in make_reader(f).get_summary().channels.values()}  # type: ignore[union-attr]
+        assert len({t.split("/")[1] for t in topics}) == 1  # only its own run's keys
+
+
+def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
+    router: str, tmp_path: Path
+) -> None:
+    run, out = "termrun", tmp_path / "run.mcap"
+    proc = subprocess.Popen(
+        [*PYTHON, "run", "obstacles", "--connect", router, "--run", run, "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        with client(router) as session:
+            Watcher(session, run).until_tick(150)
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=30)
+    finally:
+        stop(proc)
+    assert code != 0
+    assert processes_mentioning(run) == []
+    with out.open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()  # only a finished file has a summary section
+        assert summary is not None and summary.statistics is not None
+        assert summary.statistics.message_count > 0
+    assert len(read_trajectory(out, dt=0.01).velocities) >= 150
+
+
+def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -> None:
+    scenario = short(tmp_path, "sinusoid", duration=3.0)
+    run, out = "junk", tmp_path / "run.mcap"
+    proc = subprocess.Popen(
+        [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--json",
+         "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    garbage = [
+        b"\xc1\xff not msgpack",
+        msgpack.packb({"v": 1, "k": "state", "id": "two", "tick": None}),
+        msgpack.packb({"v": 99, "k": "state"}),
+        msgpack.packb({"v": 1, "k": "state", "id": 2, "tick": 5, "pos": [float("nan"), 0.0],
+                       "omega": False, "bid": 1.0, "sigma": 1.0, "theta": 0.0}),
+        msgpack.packb([1, 2, 3]),
+        b"",
+    ]  # fmt: skip
+    try:
+        with client(router) as session:
+            watcher = Watcher(session, run)
+            watcher.until_tick(20)
+            keys = watcher.keys
+            targets = [keys.state(2), keys.command(3), keys.sensing(1), keys.tick, keys.event,
+                       keys.summary, keys.config(4), keys.scenario]  # fmt: skip
+            for key in targets:
+                for payload in garbage:
+                    session.put(key, payload)
+            stdout, stderr = proc.communicate(timeout=240)
+    finally:
+        stop(proc)
+    assert proc.returncode == 0, stderr
+    scn = load_scenario(scenario)
+    assert read_trajectory(out, dt=scn.dt).equals(simulate(scn))
+    assert json_of(subprocess.CompletedProcess([], 0, stdout, stderr))["collisions"] == 0
