@@ -37,16 +37,18 @@ class AgentOptions:
     start_timeout: float = 60.0  # s to wait for the world and its configuration
 
 
-def fetch_config(session: zenoh.Session, keys: Keys, agent_id: int, timeout: float) -> AgentConfig:
-    """Ask the world's queryable for this agent's configuration."""
+def fetch_config(
+    session: zenoh.Session, keys: Keys, agent_id: int, timeout: float
+) -> tuple[AgentConfig, str]:
+    """Ask the world's queryable for this agent's configuration and the run's clock."""
     for reply in session.get(keys.config(agent_id), timeout=timeout):
         if reply.ok is not None:
             try:
-                config = codec.decode_config(reply.ok.payload.to_bytes())
+                config, clock = codec.decode_assignment(reply.ok.payload.to_bytes())
             except DecodeError as exc:
                 raise AgentAbort(f"agent {agent_id}: bad configuration: {exc}") from None
             if config.agent_id == agent_id:
-                return config
+                return config, clock
     raise AgentAbort(f"agent {agent_id}: the world has no configuration for this agent")
 
 
@@ -61,9 +63,8 @@ class AgentNode:
         self.dropped = 0
         self._world_watch = watch_presence(session, k.alive_world, self.inbox)
         self._await_world()
-        self.controller = Controller(
-            fetch_config(session, k, options.agent_id, options.start_timeout)
-        )
+        config, self.clock = fetch_config(session, k, options.agent_id, options.start_timeout)
+        self.controller = Controller(config)
         me = options.agent_id
         self._held = [subscribe(session, k.sensing(me), self.inbox)]
         self._held += [
@@ -75,6 +76,7 @@ class AgentNode:
         self.memory = self.controller.start()
         self.gone: set[int] = set()
         self.heard: dict[int, dict[int, AgentState]] = defaultdict(dict)
+        self.latest: dict[int, AgentState] = {}  # realtime: the freshest state of each neighbour
         self.pending: tuple[Sensing, AgentState] | None = None
         self.token = session.liveliness().declare_token(k.alive_agent(me))
 
@@ -113,7 +115,12 @@ class AgentNode:
                 state = codec.decode_state(arrival.payload)
                 if state.agent_id != agent_of(arrival.key):
                     raise DecodeError(f"state of agent {state.agent_id} on another agent's key")
-                self.heard[state.tick][state.agent_id] = state
+                if self.clock == "realtime":
+                    old = self.latest.get(state.agent_id)
+                    if old is None or old.tick < state.tick:
+                        self.latest[state.agent_id] = state
+                else:
+                    self.heard[state.tick][state.agent_id] = state
         except DecodeError as exc:
             self.dropped += 1
             if self.dropped <= 10:
@@ -133,13 +140,19 @@ class AgentNode:
         self.pending = (sensing, state)
 
     def _maybe_act(self) -> None:
+        """Lockstep: act once every present neighbour has announced this tick. Realtime: act at
+        once, on the freshest state heard from each present neighbour."""
         if self.pending is None:
             return
         sensing, state = self.pending
-        heard = self.heard[sensing.tick]
         needed = [j for j in self.controller.listens_to if j not in self.gone]
-        if any(j not in heard for j in needed):
-            return
+        if self.clock == "realtime":
+            heard = self.latest
+            needed = [j for j in needed if j in heard]
+        else:
+            heard = self.heard[sensing.tick]
+            if any(j not in heard for j in needed):
+                return
         self.memory, command = self.controller.act(
             self.memory, sensing, {j: heard[j] for j in needed}
         )

@@ -246,11 +246,16 @@ _PARAMS = (
 )  # fmt: skip
 
 
-def encode_config(c: AgentConfig) -> bytes:
+CLOCKS = ("lockstep", "realtime")
+
+
+def encode_config(c: AgentConfig, *, clock: str = "lockstep") -> bytes:
+    """An agent's configuration, with the run's clock ("lockstep" or "realtime")."""
     p = c.params
     return _pack(
         "config",
         {
+            "clock": clock,
             "id": c.agent_id,
             "dim": c.dim,
             "dt": c.dt,
@@ -267,7 +272,15 @@ def encode_config(c: AgentConfig) -> bytes:
 
 
 def decode_config(data: bytes) -> AgentConfig:
+    return decode_assignment(data)[0]
+
+
+def decode_assignment(data: bytes) -> tuple[AgentConfig, str]:
+    """The configuration and the run's clock."""
     m = _unpack("config", data)
+    clock = _get(m, "clock", _str)
+    if clock not in CLOCKS:
+        raise DecodeError(f"config.clock: {clock!r} is not one of {', '.join(CLOCKS)}")
     pm = _get(m, "params", _map)
     params = ControlParams(
         **{k: _get(pm, k, _float) for k in _PARAMS},
@@ -285,7 +298,7 @@ def decode_config(data: bytes) -> AgentConfig:
                 _float(items[2], "config.reshapes"),
             )
         )
-    return AgentConfig(
+    config = AgentConfig(
         agent_id=_get(m, "id", _int),
         dim=_get(m, "dim", _int),
         dt=_get(m, "dt", _float),
@@ -298,6 +311,7 @@ def decode_config(data: bytes) -> AgentConfig:
         path=_path_from(m.get("path"), "config.path"),
         reshapes=tuple(reshapes),
     )
+    return config, clock
 
 
 # -- world → all --------------------------------------------------------------------------------

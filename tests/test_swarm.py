@@ -182,3 +182,22 @@ def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -
     scn = load_scenario(scenario)
     assert read_trajectory(out, dt=scn.dt).equals(simulate(scn))
     assert json_of(subprocess.CompletedProcess([], 0, stdout, stderr))["collisions"] == 0
+
+
+@pytest.mark.parametrize("name", ["sinusoid", "obstacles"])
+def test_realtime_run_converges_without_collisions_and_reports_latency(
+    name: str, tmp_path: Path
+) -> None:
+    proc = run_cli(["run", name, "--mode", "realtime", "--speed", "2", "--json",
+                    "--out", str(tmp_path / "run.mcap")])  # fmt: skip
+    assert proc.returncode == 0
+    got = json_of(proc)
+    assert got["clock"] == "realtime"
+    assert got["collisions"] == 0
+    assert got["convergence_time"] is not None
+    assert got["convergence_time"] <= got["convergence_bound"]
+    assert got["final_formation_error"] <= 3 * got["tolerance"]
+    assert 0 < got["latency_p50_ms"] <= got["latency_p99_ms"]
+    assert isinstance(got["missed_deadlines"], int) and got["missed_deadlines"] >= 0
+    # The world kept (roughly) to its wall clock: 2 simulated seconds per second.
+    assert got["ticks_per_s"] > 0.5 * 2 / got["dt"]

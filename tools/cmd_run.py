@@ -35,9 +35,17 @@ def free_port() -> int:
 @click.argument("scenario", default="default")
 @click.option(
     "--mode",
-    type=click.Choice(["lockstep"]),
+    type=click.Choice(["lockstep", "realtime"]),
     default="lockstep",
-    help="lockstep: the world advances once every live agent's command for the tick is in.",
+    help="lockstep: the world advances once every live agent's command for the tick is in "
+    "(exact, deterministic); realtime: the world integrates at a fixed wall-clock rate with "
+    "each agent's latest command.",
+)
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0.01, max=100.0),
+    default=1.0,
+    help="realtime: simulated seconds per wall-clock second.",
 )
 @click.option(
     "--out",
@@ -54,6 +62,7 @@ def free_port() -> int:
 def run(
     scenario: str,
     mode: str,
+    speed: float,
     out: Path | None,
     connect: str | None,
     run_id: str | None,
@@ -88,7 +97,7 @@ def run(
                 "world",
                 "world",
                 ["world", world_arg, *common, "--expect", "logger", "--expect", "monitor",
-                 "--start-timeout", str(start_timeout)],
+                 "--clock", mode, "--speed", str(speed), "--start-timeout", str(start_timeout)],
             )  # fmt: skip
             for i in range(1, scn.n + 1):
                 swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])

@@ -22,6 +22,18 @@ from world.process import World, WorldAbort, WorldOptions
     multiple=True,
     help="Also wait for this process's token before tick 0 (logger, monitor; repeatable).",
 )
+@click.option(
+    "--clock",
+    type=click.Choice(["lockstep", "realtime"]),
+    default="lockstep",
+    help="lockstep: wait for every live agent each tick; realtime: a fixed wall-clock rate.",
+)
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0.01, max=100.0),
+    default=1.0,
+    help="realtime: simulated seconds per wall-clock second.",
+)
 @click.option("--start-timeout", default=60.0, help="Seconds to wait for every agent.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def world(
@@ -31,18 +43,22 @@ def world(
     zenoh_config: Path | None,
     multicast: bool,
     expect: tuple[str, ...],
+    clock: str,
+    speed: float,
     start_timeout: float,
     as_json: bool,
 ) -> None:
     """Simulate kinematics and sensing for the agents of run RUN, in lockstep."""
     exit_on_signals()
     scn = load_for_cli(scenario)
-    options = WorldOptions(run=run_id, expect=expect, start_timeout=start_timeout)
+    options = WorldOptions(
+        run=run_id, expect=expect, clock=clock, speed=speed, start_timeout=start_timeout
+    )
     with open_session(client_config(connect, zenoh_config, multicast), "world") as session:
         w = World(scn, options, session)
         try:
             w.wait_for_everyone()
-            summary = json_safe(w.run().as_dict())
+            summary = json_safe(w.run())
         except WorldAbort as exc:
             raise click.ClickException(str(exc)) from None
     click.echo(json.dumps(summary) if as_json else render_summary(summary))

@@ -37,6 +37,16 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("agreed σ", f"{_fmt(summary['sigma'], '', 3)} (rounds {_fmt(summary['sigma_rounds'])})"),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
+    if summary.get("clock") is not None:
+        rows.append(
+            (
+                "clock",
+                f"{summary['clock']}: {_fmt(summary.get('ticks_per_s'), ' ticks/s', 1)}, "
+                f"command latency p50 {_fmt(summary.get('latency_p50_ms'), ' ms', 2)} / "
+                f"p99 {_fmt(summary.get('latency_p99_ms'), ' ms', 2)}, "
+                f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
+            )
+        )
     if summary.get("assumption2_violations"):
         rows.append(("Assumption 2 broken", f"{summary['assumption2_violations']} ticks"))
     width = max(len(k) for k, _ in rows)

@@ -23,7 +23,7 @@ from bus.links import publisher, subscribe, watch_presence
 from bus.runtime import Arrival, Inbox, warn
 from bus.types import AgentState, Command, Event, TickRecord
 from world.kinematics import integrate, sensing_for
-from world.metrics import Summary, summarize
+from world.metrics import summarize
 from world.scenario import Scenario
 from world.trajectory import Trajectory
 
@@ -36,6 +36,8 @@ class WorldAbort(RuntimeError):
 class WorldOptions:
     run: str
     expect: tuple[str, ...] = ()  # other processes (logger, monitor) to wait for
+    clock: str = "lockstep"  # or "realtime"
+    speed: float = 1.0  # realtime: simulated seconds per wall-clock second
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
 
@@ -52,7 +54,10 @@ class World:
         self.dropped = 0  # malformed or stale messages counted and dropped
         self.alive = set(range(1, scenario.n + 1))
         self.up: set[str] = set()
-        configs = {i: codec.encode_config(scenario.agent_config(i)) for i in self.alive}
+        configs = {
+            i: codec.encode_config(scenario.agent_config(i), clock=options.clock)
+            for i in self.alive
+        }
 
         def serve(query: zenoh.Query) -> None:
             with query:
@@ -99,42 +104,29 @@ class World:
 
     # -- ticks ----------------------------------------------------------------------------------
 
-    def run(self) -> Summary:
+    def run(self) -> dict[str, Any]:
+        """Run every tick; returns (and publishes) the summary with the run's timing."""
         s = self.scenario
-        n, dim = s.n, s.dim
         centres, radii = s.obstacle_centres, s.obstacle_radii
         positions = s.initial_positions
         history: dict[str, list[Any]] = {
             name: [] for name in ("pos", "vel", "omega", "bid", "sigma", "theta")
         }
+        latest: dict[int, tuple[AgentState, Command]] = {}
+        clock = _Clock(realtime=self.options.clock == "realtime", period=s.dt / self.options.speed)
         for k in range(s.steps):
+            clock.sent(k)
             for i in sorted(self.alive):
                 sensing = sensing_for(k, positions[i - 1], centres, radii, s.control.sensing_radius)
                 self.sensing_out[i].put(codec.encode_sensing(sensing))
-            reports = self._collect(k)
-            velocities = np.zeros((n, dim))
-            omega, bid = [False] * n, [1.0] * n
-            sigma, theta = [1.0] * n, [0.0] * n
-            for i, (state, command) in reports.items():
-                velocities[i - 1] = command.velocity
-                omega[i - 1], bid[i - 1] = state.omega, state.bid
-                sigma[i - 1], theta[i - 1] = state.sigma, state.theta
-            record = TickRecord(
-                tick=k,
-                positions=tuple(tuple(float(x) for x in p) for p in positions),
-                velocities=tuple(tuple(float(x) for x in v) for v in velocities),
-                omega=tuple(omega),
-                bid=tuple(bid),
-                sigma=tuple(sigma),
-                theta=tuple(theta),
-                alive=tuple(i in self.alive for i in range(1, n + 1)),
-            )
-            self.tick_out.put(codec.encode_tick(record))
-            for name, value in zip(
-                history, (positions, velocities, omega, bid, sigma, theta), strict=True
-            ):
+            self._collect(k, latest, clock)
+            reports = {i: latest[i] for i in sorted(self.alive) if i in latest}
+            clock.missed += sum(1 for i in self.alive if i not in latest or latest[i][1].tick != k)
+            row = _record(k, positions, reports, self.alive, s.n, s.dim)
+            self.tick_out.put(codec.encode_tick(row))
+            for name, value in zip(history, _columns(row), strict=True):
                 history[name].append(value)
-            positions = integrate(positions, velocities, s.dt)
+            positions = integrate(positions, np.asarray(row.velocities), s.dt)
         history["pos"].append(positions)
         traj = Trajectory(
             dt=s.dt,
@@ -145,36 +137,60 @@ class World:
             sigma=np.asarray(history["sigma"]),
             theta=np.asarray(history["theta"]),
         )
-        summary = summarize(s, traj)
+        summary = {
+            **summarize(s, traj).as_dict(),
+            **clock.report(s.steps),
+            "dropped_messages": self.dropped,
+        }
         self._event(s.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped")
-        self.summary_out.put(codec.encode_document("summary", summary.as_dict()))
+        self.summary_out.put(codec.encode_document("summary", summary))
         return summary
 
-    def _collect(self, k: int) -> dict[int, tuple[AgentState, Command]]:
-        """Wait until every live agent's report for tick k is in (or the agent is gone)."""
-        reports: dict[int, tuple[AgentState, Command]] = {}
-        while not self.alive <= reports.keys():
-            arrival = self.inbox.get(timeout=self.options.answer_timeout)
-            if arrival is None:
-                silent = ", ".join(str(i) for i in sorted(self.alive - reports.keys()))
-                raise WorldAbort(f"tick {k}: no command from agent(s) {silent} in time")
+    def _collect(
+        self, k: int, latest: dict[int, tuple[AgentState, Command]], clock: _Clock
+    ) -> None:
+        """Take commands into ``latest`` until tick k may end: in lockstep once every live
+        agent's command for tick k is in; in realtime when the tick's wall-clock period ends."""
+        while True:
+            if clock.realtime:
+                left = clock.deadline - time.monotonic()
+                if left <= 0:
+                    return
+                arrival = self.inbox.get(timeout=left)
+                if arrival is None:
+                    return
+            else:
+                if all(i in latest and latest[i][1].tick == k for i in self.alive):
+                    return
+                arrival = self.inbox.get(timeout=self.options.answer_timeout)
+                if arrival is None:
+                    silent = [i for i in sorted(self.alive) if latest.get(i, (0, None))[1] is None
+                              or latest[i][1].tick != k]  # fmt: skip
+                    raise WorldAbort(f"tick {k}: no command from agent(s) {silent} in time")
             if arrival.kind != "data":
                 self._note_presence(arrival, tick=k)
                 continue
-            try:
-                state, command = codec.decode_report(arrival.payload)
-            except DecodeError as exc:
-                self._drop(f"{arrival.key}: {exc}")
+            report = self._valid_report(arrival, k)
+            if report is None:
                 continue
-            if command.agent_id != agent_of(arrival.key) or command.tick != k:
-                self._drop(f"{arrival.key}: agent {command.agent_id} tick {command.tick}")
-                continue
-            if len(command.velocity) != self.scenario.dim:
-                self._drop(f"{arrival.key}: velocity has {len(command.velocity)} coordinates")
-                continue
-            if command.agent_id in self.alive:
-                reports[command.agent_id] = (state, command)
-        return reports
+            i, tick = report[1].agent_id, report[1].tick
+            if i in self.alive and (i not in latest or latest[i][1].tick < tick):
+                latest[i] = report
+                clock.answered(tick)
+
+    def _valid_report(self, arrival: Arrival, k: int) -> tuple[AgentState, Command] | None:
+        try:
+            state, command = codec.decode_report(arrival.payload)
+        except DecodeError as exc:
+            self._drop(f"{arrival.key}: {exc}")
+            return None
+        if command.agent_id != agent_of(arrival.key) or not 0 <= command.tick <= k:
+            self._drop(f"{arrival.key}: agent {command.agent_id} tick {command.tick} at {k}")
+            return None
+        if len(command.velocity) != self.scenario.dim:
+            self._drop(f"{arrival.key}: velocity has {len(command.velocity)} coordinates")
+            return None
+        return state, command
 
     def _note_presence(self, arrival: Arrival, *, tick: int = 0) -> None:
         if arrival.kind == "up":
@@ -194,3 +210,74 @@ class World:
     def _event(self, tick: int, level: int, agent: int, text: str) -> None:
         self.event_out.put(codec.encode_event(Event(tick, level, agent, text)))
         warn(f"world: {text}")
+
+
+def _record(
+    k: int,
+    positions: np.ndarray[Any, Any],
+    reports: dict[int, tuple[AgentState, Command]],
+    alive: set[int],
+    n: int,
+    dim: int,
+) -> TickRecord:
+    """The ground truth of tick k: an agent without a report (gone) stands still."""
+    velocities = np.zeros((n, dim))
+    omega, bid, sigma, theta = [False] * n, [1.0] * n, [1.0] * n, [0.0] * n
+    for i, (state, command) in reports.items():
+        velocities[i - 1] = command.velocity
+        omega[i - 1], bid[i - 1] = state.omega, state.bid
+        sigma[i - 1], theta[i - 1] = state.sigma, state.theta
+    return TickRecord(
+        tick=k,
+        positions=tuple(tuple(float(x) for x in p) for p in positions),
+        velocities=tuple(tuple(float(x) for x in v) for v in velocities),
+        omega=tuple(omega),
+        bid=tuple(bid),
+        sigma=tuple(sigma),
+        theta=tuple(theta),
+        alive=tuple(i in alive for i in range(1, n + 1)),
+    )
+
+
+def _columns(r: TickRecord) -> tuple[Any, ...]:
+    return (r.positions, r.velocities, r.omega, r.bid, r.sigma, r.theta)
+
+
+class _Clock:
+    """Wall-clock bookkeeping of a run: tick deadlines (realtime) and command latency."""
+
+    def __init__(self, *, realtime: bool, period: float) -> None:
+        self.realtime = realtime
+        self.period = period
+        self.start = time.monotonic()
+        self.deadline = self.start
+        self.sent_at: dict[int, float] = {}
+        self.latencies: list[float] = []
+        self.missed = 0  # agent-ticks that ended without that agent's command for the tick
+        self.overruns = 0  # realtime ticks that began after their deadline had passed
+
+    def sent(self, k: int) -> None:
+        now = time.monotonic()
+        self.sent_at[k] = now
+        self.sent_at.pop(k - 64, None)
+        if self.realtime:
+            self.deadline += self.period
+            if self.deadline < now:
+                self.overruns += 1
+                self.deadline = now + self.period
+
+    def answered(self, tick: int) -> None:
+        if tick in self.sent_at:
+            self.latencies.append(time.monotonic() - self.sent_at[tick])
+
+    def report(self, steps: int) -> dict[str, Any]:
+        wall = time.monotonic() - self.start
+        lat = np.asarray(self.latencies) * 1e3
+        return {
+            "clock": "realtime" if self.realtime else "lockstep",
+            "ticks_per_s": round(steps / wall, 2) if wall > 0 else None,
+            "latency_p50_ms": round(float(np.percentile(lat, 50)), 3) if lat.size else None,
+            "latency_p99_ms": round(float(np.percentile(lat, 99)), 3) if lat.size else None,
+            "missed_deadlines": self.missed if self.realtime else 0,
+            "overruns": self.overruns,
+        }
