@@ -38,6 +38,7 @@ class WorldOptions:
     expect: tuple[str, ...] = ()  # other processes (logger, monitor) to wait for
     clock: str = "lockstep"  # or "realtime"
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
+    stale_after: int = 5  # realtime: a command older than this many ticks is not applied
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
 
@@ -122,6 +123,10 @@ class World:
             self._collect(k, latest, clock)
             reports = {i: latest[i] for i in sorted(self.alive) if i in latest}
             clock.missed += sum(1 for i in self.alive if i not in latest or latest[i][1].tick != k)
+            stale = [i for i, r in reports.items() if k - r[1].tick > self.options.stale_after]
+            for i in stale:  # a watchdog, as on a real robot: no fresh command, no motion
+                del reports[i]
+            clock.stale_holds += len(stale)
             row = _record(k, positions, reports, self.alive, s.n, s.dim)
             self.tick_out.put(codec.encode_tick(row))
             for name, value in zip(history, _columns(row), strict=True):
@@ -255,6 +260,7 @@ class _Clock:
         self.latencies: list[float] = []
         self.missed = 0  # agent-ticks that ended without that agent's command for the tick
         self.overruns = 0  # realtime ticks that began after their deadline had passed
+        self.stale_holds = 0  # agent-ticks held still because the latest command was too old
 
     def sent(self, k: int) -> None:
         now = time.monotonic()
@@ -280,4 +286,5 @@ class _Clock:
             "latency_p99_ms": round(float(np.percentile(lat, 99)), 3) if lat.size else None,
             "missed_deadlines": self.missed if self.realtime else 0,
             "overruns": self.overruns,
+            "stale_holds": self.stale_holds,
         }
