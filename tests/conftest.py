@@ -22,7 +22,7 @@ from bus.keys import Keys
 from bus.links import subscribe
 from bus.runtime import Inbox
 from bus.zconfig import zenoh_config
-from tools.cmd_run import free_port
+from tools.launch import free_port
 from tools.swarm import Swarm
 
 PYTHON = [sys.executable, "-m", "tools"]

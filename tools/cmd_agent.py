@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import resource
 from pathlib import Path
 
 import click
@@ -32,6 +33,10 @@ def agent(
             node = AgentNode(options, session)
         except AgentAbort as exc:
             raise click.ClickException(str(exc)) from None
-        node.run()
-        if node.dropped:
-            warn(f"agent {agent_id}: {node.dropped} bad messages dropped")
+        try:
+            node.run()
+        finally:
+            if node.dropped:
+                warn(f"agent {agent_id}: {node.dropped} bad messages dropped")
+            peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+            warn(f"agent {agent_id}: peak_rss_kb {peak}")

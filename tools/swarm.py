@@ -15,6 +15,7 @@ import ctypes
 import ctypes.util
 import os
 import select
+import shutil
 import signal
 import subprocess
 import sys
@@ -145,6 +146,7 @@ class Swarm:
         for c in self.children:
             if c.popen.stdout is not None:
                 c.popen.stdout.close()
+        shutil.rmtree(self.log_dir, ignore_errors=True)
 
 
 def _signal(child: Child, sig: int) -> None:
