@@ -5,6 +5,8 @@ from __future__ import annotations
 import click
 
 from tools.cmd_agent import agent
+from tools.cmd_bench import bench
+from tools.cmd_floor import floor
 from tools.cmd_logger import logger
 from tools.cmd_router import router
 from tools.cmd_run import run
@@ -19,5 +21,5 @@ def main() -> None:
     """Safe formation control for swarms of mobile robots (leader–follower, obstacle avoidance)."""
 
 
-for command in (run, simulate, scenarios, router, world, agent, logger):
+for command in (run, simulate, scenarios, bench, router, world, agent, logger, floor):
     main.add_command(command)

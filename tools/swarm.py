@@ -87,8 +87,8 @@ class Swarm:
         self.children.append(child)
         return child
 
-    def wait_ready(self, child: Child, timeout: float) -> str:
-        """Block until ``child`` prints its ``ready …`` line; returns that line."""
+    def wait_ready(self, child: Child, timeout: float, *, prefix: str = "ready") -> str:
+        """Block until ``child`` prints a line starting with ``prefix``; returns that line."""
         stream: IO[bytes] | None = child.popen.stdout
         if stream is None:
             raise ChildFailed(f"{child.name}: spawned without a ready pipe")
@@ -98,7 +98,7 @@ class Swarm:
             if not readable:
                 break
             line = stream.readline().decode(errors="replace").strip()
-            if line.startswith("ready"):
+            if line.startswith(prefix):
                 return line
             if not line and child.popen.poll() is not None:
                 raise ChildFailed(
