@@ -67,8 +67,8 @@ def measure_floor(n: int, ticks: int, timeout: float = 120.0) -> dict[str, Any]:
             ready_pipe=True,
         )
         for i in range(1, n + 1):
-            swarm.spawn(f"floor agent {i}", "agent",
-                        ["floor", "agent", "--agents", str(n), "--id", str(i), *common])  # fmt: skip
+            args = ["floor", "agent", "--agents", str(n), "--id", str(i), *common]
+            swarm.spawn(f"floor agent {i}", "agent", args)
         for child in listeners:
             swarm.wait_ready(child, timeout)
         result = json.loads(swarm.wait_ready(world, timeout, prefix="{"))

@@ -58,8 +58,9 @@ def floor_world(
         answered: set[int] = set()
         while len(answered) < agents:
             a = inbox.wait()
-            if a.kind == "data" and tick_of(a.payload) == k and (i := agent_of(a.key)):
-                answered.add(i)
+            sender = agent_of(a.key)
+            if a.kind == "data" and tick_of(a.payload) == k and sender is not None:
+                answered.add(sender)
         tick_out.put(payload(k, sizes["tick"]))
     wall = time.monotonic() - start
     del held, token
