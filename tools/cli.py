@@ -1,25 +1,50 @@
-"""The ``shoal`` command line: one click group, one module per subcommand."""
+"""The ``shoal`` command line: one click group, one module per subcommand.
+
+Subcommands are imported only when invoked: an agent process (``shoal agent``) then loads the
+controller and the bus but not the logger, MCAP, YAML or benchmark code, which keeps its start
+fast and its memory small (there may be fifty of them on one machine).
+"""
 
 from __future__ import annotations
 
+import importlib
+
 import click
 
-from tools.cmd_agent import agent
-from tools.cmd_bench import bench
-from tools.cmd_floor import floor
-from tools.cmd_logger import logger
-from tools.cmd_router import router
-from tools.cmd_run import run
-from tools.cmd_scenarios import scenarios
-from tools.cmd_simulate import simulate
-from tools.cmd_world import world
+COMMANDS = {
+    "run": "tools.cmd_run:run",
+    "simulate": "tools.cmd_simulate:simulate",
+    "scenarios": "tools.cmd_scenarios:scenarios",
+    "bench": "tools.cmd_bench:bench",
+    "router": "tools.cmd_router:router",
+    "world": "tools.cmd_world:world",
+    "agent": "tools.cmd_agent:agent",
+    "logger": "tools.cmd_logger:logger",
+    "floor": "tools.cmd_floor:floor",
+}
 
 
-@click.group(context_settings={"auto_envvar_prefix": "SHOAL", "show_default": True})
+class LazyGroup(click.Group):
+    """A group whose subcommands live in modules imported on first use."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return list(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        target = COMMANDS.get(cmd_name)
+        if target is None:
+            return None
+        module, attr = target.split(":")
+        command = getattr(importlib.import_module(module), attr)
+        if not isinstance(command, click.Command):
+            raise TypeError(f"{target} is not a click command")
+        return command
+
+
+@click.group(
+    cls=LazyGroup,
+    context_settings={"auto_envvar_prefix": "SHOAL", "show_default": True},
+)
 @click.version_option(package_name="shoal")
 def main() -> None:
     """Safe formation control for swarms of mobile robots (leader–follower, obstacle avoidance)."""
-
-
-for command in (run, simulate, scenarios, bench, router, world, agent, logger, floor):
-    main.add_command(command)
