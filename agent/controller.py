@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -63,6 +63,19 @@ class Controller:
         tau = self.params.heading_tau
         self.smoothing = 1.0 if tau <= 0 else 1.0 - math.exp(-config.dt / tau)
         self.listens_to = tuple(sorted(set(config.senses) | set(config.talks_to)))
+        self._shapes: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
+
+    def _shaped(self, sigma: float, theta: float) -> tuple[FloatArray, FloatArray]:
+        """R(θ)δ/σ of this agent and of its sensed neighbours, computed once per (σ, θ)."""
+        key = (sigma, theta)
+        if key not in self._shapes:
+            if len(self._shapes) > 32:
+                self._shapes.clear()
+            self._shapes[key] = (
+                shaped(self.offset, sigma=sigma, theta=theta),
+                shaped(self.neighbour_offsets, sigma=sigma, theta=theta),
+            )
+        return self._shapes[key]
 
     def start(self) -> Memory:
         """The memory before tick 0: at rest, not evading, bidding 1, unscaled."""
@@ -90,8 +103,9 @@ class Controller:
             if tick > 0:
                 agreed = memory.bid
             demanded, theta = self.shape(tick, 1.0)
-            slot_shift = shaped(self.offset, sigma=demanded, theta=theta) - shaped(
-                self.offset, sigma=demanded * memory.sigma_consensus, theta=theta
+            slot_shift = (
+                self._shaped(demanded, theta)[0]
+                - self._shaped(demanded * memory.sigma_consensus, theta)[0]
             )
             bid = passage_bid(
                 position,
@@ -118,7 +132,7 @@ class Controller:
                 safety_margin=p.safety_margin,
                 epsilon=p.epsilon,
             )
-        memory = replace(memory, evasion=evasion, bid=bid, sigma_consensus=agreed)
+        memory = Memory(memory.heading, evasion, bid, agreed)
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
             agent_id=self.config.agent_id,
@@ -145,10 +159,11 @@ class Controller:
         else:
             v = self._follow(memory, sensing, neighbours)
         bids = [neighbours[j].bid for j in cfg.talks_to if j in neighbours]
-        memory = replace(
-            memory,
+        memory = Memory(
             heading=memory.heading + self.smoothing * (v - memory.heading),
+            evasion=memory.evasion,
             bid=consensus_round(memory.bid, bids),
+            sigma_consensus=memory.sigma_consensus,
         )
         command = Command(
             agent_id=cfg.agent_id, tick=sensing.tick, velocity=tuple(float(c) for c in v)
@@ -164,11 +179,9 @@ class Controller:
         positions = np.asarray(
             [neighbours[cfg.senses[k]].position for k in keep], dtype=np.float64
         ).reshape(len(keep), cfg.dim)
+        own, theirs = self._shaped(sigma, theta)
         error = consensus_error(
-            np.asarray(sensing.position, dtype=np.float64),
-            shaped(self.offset, sigma=sigma, theta=theta),
-            positions,
-            shaped(self.neighbour_offsets[keep], sigma=sigma, theta=theta),
+            np.asarray(sensing.position, dtype=np.float64), own, positions, theirs[keep]
         )
         if memory.evasion is not None:
             error = evasive_error(error, len(keep), memory.evasion.offset)
