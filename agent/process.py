@@ -78,6 +78,7 @@ class AgentNode:
         self.heard: dict[int, dict[int, AgentState]] = defaultdict(dict)
         self.latest: dict[int, AgentState] = {}  # realtime: the freshest state of each neighbour
         self.pending: tuple[Sensing, AgentState] | None = None
+        self.tick = -1  # the last tick sensed
         self.token = session.liveliness().declare_token(k.alive_agent(me))
 
     def _await_world(self) -> None:
@@ -113,8 +114,7 @@ class AgentNode:
                 self._sensed(codec.decode_sensing(arrival.payload))
             else:
                 state = codec.decode_state(arrival.payload)
-                if state.agent_id != agent_of(arrival.key):
-                    raise DecodeError(f"state of agent {state.agent_id} on another agent's key")
+                self._check_state(state, arrival.key)
                 if self.clock == "realtime":
                     old = self.latest.get(state.agent_id)
                     if old is None or old.tick < state.tick:
@@ -128,13 +128,32 @@ class AgentNode:
                     f"agent {self.options.agent_id}: dropped a bad message on {arrival.key}: {exc}"
                 )
 
+    def _check_state(self, state: AgentState, key: str) -> None:
+        """A neighbour's state must be its own, of our dimension, and of a tick it can have
+        reached: it cannot be more than one tick ahead of the last sensing we had, because the
+        world does not send tick k+1 before our command of tick k (in lockstep it cannot be
+        older than the tick before either)."""
+        if state.agent_id != agent_of(key):
+            raise DecodeError(f"state of agent {state.agent_id} on another agent's key")
+        if len(state.position) != self.controller.config.dim:
+            raise DecodeError(f"state position has {len(state.position)} coordinates")
+        oldest = self.tick - 1 if self.clock == "lockstep" else 0
+        if not oldest <= state.tick <= self.tick + 1:
+            raise DecodeError(f"state of tick {state.tick} while at tick {self.tick}")
+
     def _sensed(self, sensing: Sensing) -> None:
-        if len(sensing.position) != self.controller.config.dim:
-            raise DecodeError(f"sensing position has {len(sensing.position)} coordinates")
+        dim = self.controller.config.dim
+        if len(sensing.position) != dim or any(len(c) != dim for c in sensing.obstacle_centres):
+            raise DecodeError(f"sensing is not {dim}-D")
+        if sensing.tick <= self.tick:
+            raise DecodeError(f"sensing of tick {sensing.tick} after tick {self.tick}")
+        if any(r <= 0 for r in sensing.obstacle_radii):
+            raise DecodeError("sensing has an obstacle radius ≤ 0")
         if self.pending is not None:
             raise DecodeError(
                 f"sensing of tick {sensing.tick} before tick {self.pending[0].tick} was answered"
             )
+        self.tick = sensing.tick
         self.memory, state = self.controller.announce(self.memory, sensing)
         self.state_out.put(codec.encode_state(state))
         self.pending = (sensing, state)

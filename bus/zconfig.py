@@ -3,7 +3,8 @@
 Order of precedence, lowest first: Zenoh's defaults; a config file (``--zenoh-config`` or the
 ``ZENOH_CONFIG`` environment variable, as zenoh itself reads it); ``ZENOH_CONFIG_OVERRIDE``
 (``key=json5;key=json5``, rmw_zenoh's convention); then what shoal sets explicitly: the mode,
-the connect and listen endpoints, and multicast scouting, which is off unless asked for.
+the connect and listen endpoints, and multicast scouting, which is off unless asked for. A
+client with no config file or override of its own retries its router for 30 s.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import zenoh
 from bus.errors import WireError
 
 MODES = ("client", "peer", "router")
+CLIENT_CONNECT_MS = 30_000  # how long a client keeps trying to reach its router
 
 
 def zenoh_config(
@@ -43,6 +45,11 @@ def zenoh_config(
         if not sep:
             raise WireError(f"ZENOH_CONFIG_OVERRIDE: {item!r} is not key=json5")
         _insert(conf, key.strip(), value.strip())
+    overridden = "connect/timeout_ms" in os.environ.get("ZENOH_CONFIG_OVERRIDE", "")
+    if mode == "client" and path is None and not overridden:
+        # Zenoh's client default is a single attempt; a loaded machine can miss it (seen with
+        # 50 agents starting at once on 2 cores). Keep trying for a while instead.
+        _insert(conf, "connect/timeout_ms", str(CLIENT_CONNECT_MS))
     _insert(conf, "mode", json.dumps(mode))
     if connect:
         _insert(conf, "connect/endpoints", json.dumps(list(connect)))

@@ -16,6 +16,7 @@ from conftest import PYTHON, Watcher, client, json_of, processes_mentioning, run
 from mcap.reader import make_reader
 
 from bus import codec
+from bus.types import AgentState, Sensing
 from tools.cmd_simulate import json_safe
 from tools.mcap_read import iter_channel, read_trajectory
 from tools.simulator import simulate
@@ -164,6 +165,10 @@ def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -
                        "omega": False, "bid": 1.0, "sigma": 1.0, "theta": 0.0}),
         msgpack.packb([1, 2, 3]),
         b"",
+        # Well-formed but impossible: 3-D in a 2-D run, ticks far ahead (once crashed agents).
+        codec.encode_state(AgentState(2, 250, (1.0, 2.0, 3.0), False, 1.0, 1.0, 0.0)),
+        codec.encode_state(AgentState(2, 10**6, (1.0, 2.0), False, 1.0, 1.0, 0.0)),
+        codec.encode_sensing(Sensing(10**6, (0.0, 0.0, 0.0), (), (), ())),
     ]  # fmt: skip
     try:
         with client(router) as session:

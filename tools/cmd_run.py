@@ -11,6 +11,7 @@ import click
 from bus.runtime import exit_on_signals
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.launch import RunPlan, launch
+from tools.options import check_run_id
 from tools.report import render_summary
 from tools.swarm import ChildFailed
 from world.loader import builtin_names
@@ -41,7 +42,9 @@ from world.loader import builtin_names
 @click.option(
     "--connect", "-e", help="Use the Zenoh router at this endpoint instead of starting one."
 )
-@click.option("--run", "run_id", help="Run id [default: a fresh random one].")
+@click.option(
+    "--run", "run_id", callback=check_run_id, help="Run id [default: a fresh random one]."
+)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--start-timeout", default=60.0, help="Seconds for every process to come up.")
 def run(

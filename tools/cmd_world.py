@@ -55,8 +55,8 @@ def world(
         run=run_id, expect=expect, clock=clock, speed=speed, start_timeout=start_timeout
     )
     with open_session(client_config(connect, zenoh_config, multicast), "world") as session:
-        w = World(scn, options, session)
         try:
+            w = World(scn, options, session)
             w.wait_for_everyone()
             summary = json_safe(w.run())
         except WorldAbort as exc:

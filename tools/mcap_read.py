@@ -63,5 +63,8 @@ def read_documents(path: Path) -> dict[str, dict[str, Any]]:
     docs: dict[str, dict[str, Any]] = {}
     for kind in ("scenario", "summary"):
         for _topic, data, _ns in iter_channel(path, f"/world/{kind}"):
-            docs[kind] = codec.decode_document(kind, data)
+            try:
+                docs[kind] = codec.decode_document(kind, data)
+            except DecodeError:
+                continue  # someone else's garbage on the run's key
     return docs

@@ -10,6 +10,7 @@ import click
 import zenoh
 
 from bus.errors import WireError
+from bus.keys import Keys
 from bus.zconfig import zenoh_config
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -31,10 +32,24 @@ def bus_options(func: F) -> F:
         multiple=True,
         help="Zenoh endpoint of the router, e.g. tcp/127.0.0.1:7447 (repeatable).",
     )(func)
-    func = click.option("--run", "run_id", required=True, help="The run id every key lives under.")(
-        func
-    )
+    func = click.option(
+        "--run",
+        "run_id",
+        required=True,
+        callback=check_run_id,
+        help="The run id every key lives under.",
+    )(func)
     return func
+
+
+def check_run_id(_ctx: click.Context, _param: click.Parameter, value: str | None) -> str | None:
+    """Refuse a run id that cannot be a Zenoh key chunk, before anything starts."""
+    if value is not None:
+        try:
+            Keys(value)
+        except WireError as exc:
+            raise click.BadParameter(str(exc)) from None
+    return value
 
 
 def client_config(
