@@ -1,6 +1,6 @@
 """The reference simulator: every agent and the world in one process, in lockstep.
 
-It calls exactly what the distributed run calls: the world's ``sensing_for`` and ``integrate``
+It calls exactly what the distributed run calls: the world's ``sense_all`` and ``integrate``
 and each agent's ``Controller.announce`` / ``Controller.act``, in the same order and on the same
 float64 values, so a lockstep run over Zenoh must reproduce its trajectory bit for bit.
 """
@@ -15,7 +15,7 @@ import numpy as np
 from agent.controller import Controller
 from bus.geometry import FloatArray
 from bus.types import AgentState
-from world.kinematics import integrate, sensing_for
+from world.kinematics import integrate, sense_all
 from world.scenario import Scenario
 from world.trajectory import Trajectory
 
@@ -43,7 +43,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     d = scenario.control.sensing_radius
     positions = scenario.initial_positions
     for k in range(scenario.steps):
-        sensings = [sensing_for(k, positions[i], centres, radii, d) for i in range(n)]
+        sensings = sense_all(k, positions, centres, radii, d)
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])

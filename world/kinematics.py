@@ -16,27 +16,29 @@ def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> Float
     return positions + dt * velocities
 
 
-def sensed(position: FloatArray, centres: FloatArray, sensing_radius: float) -> list[int]:
-    """Indices of the obstacles whose centre is within the sensing radius d (Section 3)."""
-    if centres.shape[0] == 0:
-        return []
-    dist = np.linalg.norm(centres - position, axis=1)
-    return [int(k) for k in np.flatnonzero(dist <= sensing_radius)]
-
-
-def sensing_for(
+def sense_all(
     tick: int,
-    position: FloatArray,
+    positions: FloatArray,
     centres: FloatArray,
     radii: FloatArray,
     sensing_radius: float,
-) -> Sensing:
-    """The world's message to one agent at the start of ``tick``."""
-    seen = sensed(position, centres, sensing_radius)
-    return Sensing(
-        tick=tick,
-        position=tuple(float(x) for x in position),
-        obstacle_ids=tuple(seen),
-        obstacle_centres=tuple(tuple(float(x) for x in centres[k]) for k in seen),
-        obstacle_radii=tuple(float(radii[k]) for k in seen),
-    )
+) -> list[Sensing]:
+    """The world's messages to every agent at the start of ``tick``, agent-id order."""
+    rows = positions.tolist()
+    if centres.shape[0] == 0:
+        return [Sensing(tick, tuple(row), (), (), ()) for row in rows]
+    near = np.linalg.norm(positions[:, None, :] - centres[None, :, :], axis=-1) <= sensing_radius
+    centre_rows, radius_list = centres.tolist(), radii.tolist()
+    out = []
+    for i, row in enumerate(rows):
+        seen = np.flatnonzero(near[i]).tolist()
+        out.append(
+            Sensing(
+                tick=tick,
+                position=tuple(row),
+                obstacle_ids=tuple(seen),
+                obstacle_centres=tuple(tuple(centre_rows[k]) for k in seen),
+                obstacle_radii=tuple(radius_list[k] for k in seen),
+            )
+        )
+    return out

@@ -1,6 +1,6 @@
 """The world process: the lockstep clock, kinematics and sensing for every agent, over Zenoh.
 
-A thin loop around :func:`world.kinematics.sensing_for` and :func:`world.kinematics.integrate`:
+A thin loop around :func:`world.kinematics.sense_all` and :func:`world.kinematics.integrate`:
 each tick it sends every live agent its sensing, waits until every live agent's command for the
 tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
 configuration (a queryable) and follows agents' presence by liveliness: an agent whose token
@@ -22,7 +22,7 @@ from bus.keys import Keys, agent_of
 from bus.links import publisher, subscribe, watch_presence
 from bus.runtime import Arrival, Inbox, warn
 from bus.types import AgentState, Command, Event, TickRecord
-from world.kinematics import integrate, sensing_for
+from world.kinematics import integrate, sense_all
 from world.metrics import summarize
 from world.scenario import Scenario
 from world.trajectory import Trajectory
@@ -117,9 +117,9 @@ class World:
         clock = _Clock(realtime=self.options.clock == "realtime", period=s.dt / self.options.speed)
         for k in range(s.steps):
             clock.sent(k)
+            sensings = sense_all(k, positions, centres, radii, s.control.sensing_radius)
             for i in sorted(self.alive):
-                sensing = sensing_for(k, positions[i - 1], centres, radii, s.control.sensing_radius)
-                self.sensing_out[i].put(codec.encode_sensing(sensing))
+                self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
             self._collect(k, latest, clock)
             reports = {i: latest[i] for i in sorted(self.alive) if i in latest}
             clock.missed += sum(1 for i in self.alive if i not in latest or latest[i][1].tick != k)
@@ -234,8 +234,8 @@ def _record(
         sigma[i - 1], theta[i - 1] = state.sigma, state.theta
     return TickRecord(
         tick=k,
-        positions=tuple(tuple(float(x) for x in p) for p in positions),
-        velocities=tuple(tuple(float(x) for x in v) for v in velocities),
+        positions=tuple(map(tuple, positions.tolist())),
+        velocities=tuple(map(tuple, velocities.tolist())),
         omega=tuple(omega),
         bid=tuple(bid),
         sigma=tuple(sigma),
