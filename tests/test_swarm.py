@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import time
 from pathlib import Path
 
 import msgpack
@@ -138,7 +139,7 @@ def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
     finally:
         stop(proc)
     assert code != 0
-    assert processes_mentioning(run) == []
+    assert processes_mentioning(f"--run {run}") == []
     with out.open("rb") as f:
         reader = make_reader(f)
         summary = reader.get_summary()  # only a finished file has a summary section
@@ -206,3 +207,30 @@ def test_realtime_run_converges_without_collisions_and_reports_latency(
     assert isinstance(got["missed_deadlines"], int) and got["missed_deadlines"] >= 0
     # The world kept (roughly) to its wall clock: 2 simulated seconds per second.
     assert got["ticks_per_s"] > 0.5 * 2 / got["dt"]
+
+
+def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> None:
+    """Children die with their supervisor (PR_SET_PDEATHSIG), even when it cannot clean up."""
+    run = "orphans"
+    proc = subprocess.Popen(
+        [*PYTHON, "run", "sinusoid", "--connect", router, "--run", run,
+         "--out", str(tmp_path / "run.mcap")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    try:
+        with client(router) as session:
+            Watcher(session, run).until_tick(50)
+        assert len(processes_mentioning(f"--run {run}")) >= 8  # shoal run, world, logger, 5 agents
+        proc.kill()
+        proc.wait(timeout=10)
+        deadline = time.monotonic() + 15
+        while processes_mentioning(f"--run {run}") and time.monotonic() < deadline:
+            os.sched_yield()  # waiting on a condition with a deadline, not on the clock
+        left = {
+            pid: Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+            for pid in processes_mentioning(f"--run {run}")
+        }
+    finally:
+        stop(proc)
+    assert left == {}
