@@ -8,7 +8,9 @@ receiver counts and drops such messages and never crashes on them.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable, Mapping
+from operator import itemgetter
 from typing import Any, TypeVar
 
 import msgpack
@@ -118,6 +120,22 @@ def _bools(value: Any, where: str) -> tuple[bool, ...]:
     return tuple(_bool(x, where) for x in _list(value, where))
 
 
+def _finite(*values: Any) -> bool:
+    """Every value an exact, finite float: the common case the fast paths below accept."""
+    for x in values:  # noqa: SIM110 (a loop: all() over a generator is slower here)
+        if type(x) is not float or x - x != 0.0:
+            return False
+    return True
+
+
+def _plain_vector(value: Any) -> bool:
+    return type(value) is list and 2 <= len(value) <= 3 and _finite(*value)
+
+
+_SENSING_FIELDS = itemgetter("tick", "pos", "oid", "oc", "or")
+_STATE_FIELDS = itemgetter("id", "tick", "pos", "omega", "bid", "sigma", "theta")
+
+
 def _map(value: Any, where: str) -> Mapping[str, Any]:
     if not isinstance(value, dict):
         raise DecodeError(f"{where}: expected a map, got {type(value).__name__}")
@@ -142,6 +160,9 @@ def encode_sensing(s: Sensing) -> bytes:
 
 def decode_sensing(data: bytes) -> Sensing:
     m = _unpack("sensing", data)
+    fast = _sensing_fast(m)
+    if fast is not None:
+        return fast
     s = Sensing(
         tick=_get(m, "tick", _int),
         position=_get(m, "pos", _vector),
@@ -152,6 +173,32 @@ def decode_sensing(data: bytes) -> Sensing:
     if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
         raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
     return s
+
+
+def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
+    """The common case in one pass: every field present with its exact wire type (as the
+    encoder writes it); anything else (None) goes through the field-by-field checks."""
+    try:
+        t, pos, oid, oc, radii = _SENSING_FIELDS(m)
+    except KeyError:
+        return None
+    if not (
+        type(t) is int
+        and _plain_vector(pos)
+        and type(oid) is list
+        and type(oc) is list
+        and type(radii) is list
+        and len(oid) == len(oc) == len(radii)
+        and _finite(*radii)
+    ):
+        return None
+    for i in oid:
+        if type(i) is not int:
+            return None
+    for c in oc:
+        if not _plain_vector(c):
+            return None
+    return Sensing(t, tuple(pos), tuple(oid), tuple(map(tuple, oc)), tuple(radii))
 
 
 # -- agent → neighbours -------------------------------------------------------------------------
@@ -170,6 +217,16 @@ def _state_body(s: AgentState) -> dict[str, Any]:
 
 
 def _state_from(m: Mapping[str, Any]) -> AgentState:
+    with contextlib.suppress(KeyError):  # a missing field: the checks below say which
+        i, t, pos, omega, bid, sigma, theta = _STATE_FIELDS(m)
+        if (
+            type(i) is int
+            and type(t) is int
+            and type(omega) is bool
+            and _plain_vector(pos)
+            and _finite(bid, sigma, theta)
+        ):
+            return AgentState(i, t, tuple(pos), omega, bid, sigma, theta)  # the common case
     return AgentState(
         agent_id=_get(m, "id", _int),
         tick=_get(m, "tick", _int),
@@ -200,7 +257,9 @@ def encode_report(state: AgentState, command: Command) -> bytes:
 def decode_report(data: bytes) -> tuple[AgentState, Command]:
     m = _unpack("cmd", data)
     state = _state_from(m)
-    command = Command(state.agent_id, state.tick, _get(m, "vel", _vector))
+    vel: Any = m.get("vel")
+    velocity = tuple(vel) if _plain_vector(vel) else _get(m, "vel", _vector)
+    command = Command(state.agent_id, state.tick, velocity)
     return state, command
 
 
