@@ -20,6 +20,8 @@ COMMANDS = {
     "world": "tools.cmd_world:world",
     "agent": "tools.cmd_agent:agent",
     "logger": "tools.cmd_logger:logger",
+    "inspect": "tools.cmd_inspect:inspect",
+    "recover": "tools.cmd_recover:recover",
     "floor": "tools.cmd_floor:floor",
 }
 
