@@ -99,3 +99,51 @@ def short_file(tmp_path: Path) -> Path:
     path = tmp_path / "short.yaml"
     path.write_text(text)
     return path
+
+
+def test_verify_accepts_a_true_log_and_names_the_first_forged_tick(tmp_path: Path) -> None:
+    out = tmp_path / "run.mcap"
+    ran = CliRunner().invoke(main, ["run", str(short_file(tmp_path)), "--json", "--out", str(out)])
+    assert ran.exit_code == 0, ran.output
+    ok = CliRunner().invoke(main, ["verify", str(out)])
+    assert ok.exit_code == 0, ok.output
+    assert "100 of 100 recorded ticks match" in ok.output
+
+    forged = tmp_path / "forged.mcap"
+    _copy_with(out, forged, tick=37)
+    bad = CliRunner().invoke(main, ["verify", str(forged)])
+    assert bad.exit_code == 1
+    assert "99 of 100" in bad.output and "first mismatch at tick 37" in bad.output
+
+
+def _copy_with(src: Path, dst: Path, *, tick: int) -> None:
+    """Copy a log, moving agent 2 by 1 mm in the record of ``tick``."""
+    from dataclasses import replace
+
+    from mcap.records import Channel, Message, Metadata, Schema
+    from mcap.writer import Writer
+
+    from bus import codec
+    from tools.mcap_salvage import Scan, records
+
+    scan, ids = Scan(), {}
+    with dst.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        for r in records(src, scan):
+            if isinstance(r, Schema):
+                w.register_schema(r.name, r.encoding, r.data)
+            elif isinstance(r, Channel):
+                ids[r.id] = w.register_channel(r.topic, r.message_encoding, r.schema_id, r.metadata)
+            elif isinstance(r, Message):
+                data = r.data
+                if scan.channels[r.channel_id].topic.endswith("/world/tick"):
+                    rec = codec.decode_tick(data)
+                    if rec.tick == tick:
+                        moved = list(rec.positions)
+                        moved[1] = (moved[1][0] + 1e-3, moved[1][1])
+                        data = codec.encode_tick(replace(rec, positions=tuple(moved)))
+                w.add_message(ids[r.channel_id], r.log_time, data, r.publish_time, r.sequence)
+            elif isinstance(r, Metadata):
+                w.add_metadata(r.name, r.metadata)
+        w.finish()  # type: ignore[no-untyped-call]

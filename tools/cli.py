@@ -22,6 +22,7 @@ COMMANDS = {
     "logger": "tools.cmd_logger:logger",
     "inspect": "tools.cmd_inspect:inspect",
     "recover": "tools.cmd_recover:recover",
+    "verify": "tools.cmd_verify:verify",
     "floor": "tools.cmd_floor:floor",
 }
 
