@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +24,8 @@ from bus.links import subscribe
 from bus.runtime import Inbox
 from bus.zconfig import zenoh_config
 from tools.launch import free_port
-from tools.swarm import Swarm
+from tools.swarm import Child, Swarm
+from world.loader import load_scenario
 
 PYTHON = [sys.executable, "-m", "tools"]
 
@@ -108,3 +110,34 @@ def stop(proc: subprocess.Popen[Any], timeout: float = 20.0) -> int:
         except subprocess.TimeoutExpired:
             proc.kill()
     return proc.wait()
+
+
+@dataclass
+class Run:
+    """A run's processes started one by one, so a test can kill any of them; the test's own
+    session holds the "monitor" token the world waits for."""
+
+    logger: Child
+    world: Child
+    agents: list[Child]
+    watcher: Watcher
+    token: Any
+
+
+def start_run(
+    swarm: Swarm, session: zenoh.Session, router: str, scenario: str, run: str, out: Path
+) -> Run:
+    common = ["--run", run, "--connect", router]
+    watcher = Watcher(session, run)
+    token = session.liveliness().declare_token(watcher.keys.alive_process("monitor"))
+    logger = swarm.spawn(
+        "logger", "logger", ["logger", "--out", str(out), *common], ready_pipe=True
+    )
+    expect = ["--expect", "logger", "--expect", "monitor"]
+    world = swarm.spawn("world", "world", ["world", scenario, *common, *expect])
+    agents = [
+        swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
+        for i in range(1, load_scenario(scenario).n + 1)
+    ]
+    swarm.wait_ready(logger, 30)
+    return Run(logger, world, agents, watcher, token)

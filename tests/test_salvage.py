@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from conftest import Watcher, client
+from conftest import client, start_run
 from mcap.reader import make_reader
 
 from tools.cli import main
@@ -26,19 +26,10 @@ pytestmark = pytest.mark.integration
 def test_killed_logger_is_recovered_up_to_its_last_complete_chunk(
     router: str, tmp_path: Path
 ) -> None:
-    run, broken = "salvage", tmp_path / "broken.mcap"
-    common = ["--run", run, "--connect", router]
+    broken = tmp_path / "broken.mcap"
     with Swarm() as swarm, client(router) as session:
-        watcher = Watcher(session, run)
-        token = session.liveliness().declare_token(watcher.keys.alive_process("monitor"))
-        logger = swarm.spawn(
-            "logger", "logger", ["logger", "--out", str(broken), *common], ready_pipe=True
-        )
-        world = swarm.spawn("world", "world", ["world", "obstacles", *common, "--expect",
-                                               "logger", "--expect", "monitor"])  # fmt: skip
-        for i in range(1, 6):
-            swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
-        swarm.wait_ready(logger, 30)
+        r = start_run(swarm, session, router, "obstacles", "salvage", broken)
+        watcher, logger, world = r.watcher, r.logger, r.world
         watcher.until_tick(600)
         logger.done = True
         os.kill(logger.popen.pid, signal.SIGKILL)
@@ -47,7 +38,6 @@ def test_killed_logger_is_recovered_up_to_its_last_complete_chunk(
         assert world.popen.wait(timeout=30) == 0
         for c in swarm.children:
             c.done = True
-        del token
 
     assert not is_finished(broken)
     info = inspect_file(broken)

@@ -13,7 +13,16 @@ from pathlib import Path
 
 import msgpack
 import pytest
-from conftest import PYTHON, Watcher, client, json_of, processes_mentioning, run_cli, stop
+from conftest import (
+    PYTHON,
+    Watcher,
+    client,
+    json_of,
+    processes_mentioning,
+    run_cli,
+    start_run,
+    stop,
+)
 from mcap.reader import make_reader
 
 from bus import codec
@@ -62,19 +71,10 @@ def test_lockstep_run_equals_the_reference_simulator_bit_for_bit(name: str, tmp_
 
 def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_path: Path) -> None:
     scenario = short(tmp_path, "obstacles", duration=8.0)
-    run, out = "killone", tmp_path / "run.mcap"
-    common = ["--run", run, "--connect", router]
+    out = tmp_path / "run.mcap"
     with Swarm() as swarm, client(router) as session:
-        watcher = Watcher(session, run)
-        token = session.liveliness().declare_token(watcher.keys.alive_process("monitor"))
-        logger = swarm.spawn(
-            "logger", "logger", ["logger", "--out", str(out), *common], ready_pipe=True
-        )
-        expect = ["--expect", "logger", "--expect", "monitor"]
-        world = swarm.spawn("world", "world", ["world", str(scenario), *common, *expect])
-        agents = [swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
-                  for i in range(1, 6)]  # fmt: skip
-        swarm.wait_ready(logger, 30)
+        r = start_run(swarm, session, router, str(scenario), "killone", out)
+        watcher, logger, world, agents = r.watcher, r.logger, r.world, r.agents
         watcher.until_tick(200)
         os.kill(agents[2].popen.pid, signal.SIGKILL)  # follower 3
         agents[2].done = True
@@ -84,7 +84,6 @@ def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_p
         for a in agents:
             a.done = True
             a.popen.wait(timeout=30)
-        del token
     assert summary["steps"] == 800
     assert [a.popen.returncode for a in agents if a is not agents[2]] == [0, 0, 0, 0]
     events = [codec.decode_event(d) for _t, d, _ns in iter_channel(out, "/world/event")]

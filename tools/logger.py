@@ -3,11 +3,13 @@
 It subscribes to the run's whole key space before declaring its liveliness token, so a world
 that waits for the logger's token loses nothing. It stops, finishing the file, when the world
 publishes the run's summary, when the world's token vanishes after having been seen, or on
-SIGINT/SIGTERM.
+SIGINT/SIGTERM. (After the world's token vanishes it keeps recording until nothing arrives
+for half a second, at most 2 s: the summary may trail the token.)
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import zenoh
@@ -18,6 +20,8 @@ from bus.keys import Keys
 from bus.links import subscribe, watch_presence
 from bus.runtime import Inbox, announce_ready, warn
 from tools.mcap_log import FLUSH_EVERY_S, McapLog
+
+DRAIN_S = 2.0  # s the logger keeps recording after the world's token vanished
 
 
 def run_logger(session: zenoh.Session, *, run: str, out: Path) -> int:
@@ -32,18 +36,23 @@ def run_logger(session: zenoh.Session, *, run: str, out: Path) -> int:
         token = session.liveliness().declare_token(keys.alive_logger)
         announce_ready(f"logger {out}")
         world_seen = False
-        while True:
+        drain_until: float | None = None  # set once the world's token is gone
+        while drain_until is None or time.monotonic() < drain_until:
             arrival = inbox.get(timeout=FLUSH_EVERY_S)
             if arrival is None:
                 log.flush_if_due()
+                if drain_until is not None:
+                    break  # nothing more in flight
                 continue
             if arrival.kind == "up":
                 world_seen = True
                 continue
             if arrival.kind == "down":
-                if world_seen:
+                if world_seen and drain_until is None:
+                    # Liveliness and data travel apart: the world's last messages (its
+                    # summary) may still be on their way. Drain a little before finishing.
                     warn("logger: the world is gone; finishing the log")
-                    break
+                    drain_until = time.monotonic() + DRAIN_S
                 continue
             log.add(arrival.key, arrival.payload, arrival.time_ns)
             if arrival.key in (keys.scenario, keys.summary):
