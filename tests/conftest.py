@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -141,3 +142,8 @@ def start_run(
     ]
     swarm.wait_ready(logger, 30)
     return Run(logger, world, agents, watcher, token)
+
+
+def unique(name: str) -> str:
+    """A run id no other test (or concurrent test session) on this machine uses."""
+    return f"{name}-{uuid.uuid4().hex[:8]}"

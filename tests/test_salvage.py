@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from conftest import client, start_run
+from conftest import client, start_run, unique
 from mcap.reader import make_reader
 
 from tools.cli import main
@@ -28,7 +28,7 @@ def test_killed_logger_is_recovered_up_to_its_last_complete_chunk(
 ) -> None:
     broken = tmp_path / "broken.mcap"
     with Swarm() as swarm, client(router) as session:
-        r = start_run(swarm, session, router, "obstacles", "salvage", broken)
+        r = start_run(swarm, session, router, "obstacles", unique("salvage"), broken)
         watcher, logger, world = r.watcher, r.logger, r.world
         watcher.until_tick(600)
         logger.done = True

@@ -22,6 +22,7 @@ from conftest import (
     run_cli,
     start_run,
     stop,
+    unique,
 )
 from mcap.reader import make_reader
 
@@ -73,7 +74,7 @@ def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_p
     scenario = short(tmp_path, "obstacles", duration=8.0)
     out = tmp_path / "run.mcap"
     with Swarm() as swarm, client(router) as session:
-        r = start_run(swarm, session, router, str(scenario), "killone", out)
+        r = start_run(swarm, session, router, str(scenario), unique("killone"), out)
         watcher, logger, world, agents = r.watcher, r.logger, r.world, r.agents
         watcher.until_tick(200)
         os.kill(agents[2].popen.pid, signal.SIGKILL)  # follower 3
@@ -124,7 +125,7 @@ def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path) -> No
 def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
     router: str, tmp_path: Path
 ) -> None:
-    run, out = "termrun", tmp_path / "run.mcap"
+    run, out = unique("termrun"), tmp_path / "run.mcap"
     proc = subprocess.Popen(
         [*PYTHON, "run", "obstacles", "--connect", router, "--run", run, "--out", str(out)],
         stdout=subprocess.DEVNULL,
@@ -149,7 +150,7 @@ def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
 
 def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -> None:
     scenario = short(tmp_path, "sinusoid", duration=3.0)
-    run, out = "junk", tmp_path / "run.mcap"
+    run, out = unique("junk"), tmp_path / "run.mcap"
     proc = subprocess.Popen(
         [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--json",
          "--out", str(out)],
@@ -210,7 +211,7 @@ def test_realtime_run_converges_without_collisions_and_reports_latency(
 
 def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> None:
     """Children die with their supervisor (PR_SET_PDEATHSIG), even when it cannot clean up."""
-    run = "orphans"
+    run = unique("orphans")
     proc = subprocess.Popen(
         [*PYTHON, "run", "sinusoid", "--connect", router, "--run", run,
          "--out", str(tmp_path / "run.mcap")],
