@@ -23,6 +23,7 @@ COMMANDS = {
     "inspect": "tools.cmd_inspect:inspect",
     "recover": "tools.cmd_recover:recover",
     "verify": "tools.cmd_verify:verify",
+    "replay": "tools.cmd_replay:replay",
     "floor": "tools.cmd_floor:floor",
 }
 
