@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
+
 import click
 import zenoh
 
 from bus.runtime import exit_on_signals
 from tools.bench_scenarios import load_bench, message_sizes, neighbours
-from tools.floor import floor_agent, floor_listener, floor_world, report
+from tools.floor import floor_agent, floor_listener, floor_world
 from tools.options import client_config, open_session
 
 
@@ -30,7 +32,7 @@ def world_cmd(run_id: str, connect: str, agents: int, ticks: int) -> None:
     sizes = message_sizes(load_bench(agents, ticks))
     with _session(connect, "floor world") as session:
         result = floor_world(session, run=run_id, agents=agents, ticks=ticks, sizes=sizes)
-    click.echo(report(result))
+    click.echo(json.dumps(result))
 
 
 @floor.command("agent")

@@ -10,7 +10,6 @@ and ``shoal run`` do. Payloads carry the tick in their first 4 bytes.
 
 from __future__ import annotations
 
-import json
 import struct
 import time
 
@@ -121,7 +120,3 @@ def floor_listener(session: zenoh.Session, *, run: str, role: str) -> int:
             count += 1
     del held, token
     return count
-
-
-def report(result: dict[str, float]) -> str:
-    return json.dumps(result)

@@ -165,12 +165,13 @@ class World:
                 if arrival is None:
                     return
             else:
-                if all(i in latest and latest[i][1].tick == k for i in self.alive):
+                silent = [
+                    i for i in sorted(self.alive) if i not in latest or latest[i][1].tick != k
+                ]
+                if not silent:
                     return
                 arrival = self.inbox.get(timeout=self.options.answer_timeout)
                 if arrival is None:
-                    silent = [i for i in sorted(self.alive) if latest.get(i, (0, None))[1] is None
-                              or latest[i][1].tick != k]  # fmt: skip
                     raise WorldAbort(f"tick {k}: no command from agent(s) {silent} in time")
             if arrival.kind != "data":
                 self._note_presence(arrival, tick=k)
