@@ -1,0 +1,120 @@
+"""``shoal plot``: the figures show the run's own numbers, and the command writes PNG and SVG."""
+
+from __future__ import annotations
+
+import functools
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from matplotlib.collections import PolyCollection
+from matplotlib.lines import Line2D
+
+from tools.cli import main
+from tools.figures import FIGURES, RunView, consensus, distances, formation_error, omega_timeline
+from tools.simulator import simulate
+from world.loader import load_scenario
+from world.metrics import clearances
+
+
+@functools.cache
+def view_of(name: str) -> RunView:
+    scenario = load_scenario(name)
+    return RunView(scenario=scenario, traj=simulate(scenario), label=name)
+
+
+def data_lines(ax: object) -> list[Line2D]:
+    """Lines that carry data (not the axhline/axvline markers, whose data are 2 points)."""
+    return [ln for ln in ax.get_lines() if len(ln.get_xdata()) > 2]  # type: ignore[attr-defined]
+
+
+def test_distances_show_the_closest_approach_the_metrics_measure() -> None:
+    view = view_of("default")
+    summary = view.summary()
+    top, bottom = distances(view).axes
+    plotted = min(float(np.min(ln.get_ydata())) for ln in data_lines(top))
+    assert plotted == summary.min_interagent_distance
+    clear = min(float(np.min(ln.get_ydata())) for ln in data_lines(bottom))
+    assert clear == summary.min_clearance == float(clearances(view.scenario, view.traj).min())
+    # one line per graph edge plus the closest non-neighbours: every pair is covered
+    assert len(data_lines(top)) == len(view.scenario.edges) + 1
+
+
+def test_formation_error_marks_the_theorem1_bound_and_the_measured_convergence() -> None:
+    view = view_of("default")
+    summary = view.summary()
+    (ax,) = formation_error(view).axes
+    vertical = {
+        ln.get_label(): ln.get_xdata()[0] for ln in ax.get_lines() if len(ln.get_xdata()) == 2
+    }
+    bound = next(x for label, x in vertical.items() if label.startswith("Theorem 1"))
+    converged = next(x for label, x in vertical.items() if label.startswith("converged"))
+    assert bound == summary.convergence_bound and summary.convergence_bound < 20.0
+    assert converged == summary.convergence_time
+    assert len(data_lines(ax)) == view.scenario.n - 1  # one per follower
+
+
+def test_consensus_panel_shows_every_agent_reaching_the_maximum_bid() -> None:
+    view = view_of("passage")
+    _top, bottom = consensus(view).axes
+    rounds = data_lines(bottom) or bottom.get_lines()
+    assert len(rounds) == view.scenario.n
+    top_bid = float(view.traj.bid.max())
+    assert top_bid == pytest.approx(4.0)
+    # Proposition 1: after L_G rounds every agent holds the largest bid
+    finals = [float(ln.get_ydata()[view.scenario.rounds]) for ln in rounds]
+    assert finals == [top_bid] * view.scenario.n
+    starts = [float(ln.get_ydata()[0]) for ln in rounds]
+    assert starts.count(top_bid) < view.scenario.n  # it did take rounds to spread
+
+
+def test_omega_timeline_has_one_bar_per_evasion_episode() -> None:
+    view = view_of("default")
+    (ax,) = omega_timeline(view).axes
+    bars = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    episodes = sum(len(c.get_paths()) for c in bars)
+    assert episodes == view.summary().omega_episodes == 2
+
+
+def test_plot_command_writes_every_figure_as_png_and_svg(tmp_path: Path) -> None:
+    text = load_scenario("sinusoid").source.replace("duration: 30.0", "duration: 0.5")
+    assert "duration: 0.5" in text
+    scenario_file = tmp_path / "short.yaml"
+    scenario_file.write_text(text)
+    log = tmp_path / "run.mcap"
+    ran = CliRunner().invoke(
+        main, ["run", str(scenario_file), "--json", "--no-foxglove", "--out", str(log)]
+    )
+    assert ran.exit_code == 0, ran.output
+    out = tmp_path / "figs"
+    drawn = CliRunner().invoke(main, ["plot", str(log), "--out", str(out)])
+    assert drawn.exit_code == 0, drawn.output
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted(f"sinusoid-{f}.{ext}" for f in FIGURES for ext in ("png", "svg"))
+    for path in out.iterdir():
+        if path.suffix == ".png":
+            assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        else:
+            assert ET.parse(path).getroot().tag.endswith("svg")
+
+
+def test_plot_refuses_a_file_without_a_run(tmp_path: Path) -> None:
+    empty = tmp_path / "empty.mcap"
+    from mcap.writer import Writer
+
+    with empty.open("wb") as f:
+        writer = Writer(f)
+        writer.start()
+        writer.finish()  # type: ignore[no-untyped-call]
+    result = CliRunner().invoke(main, ["plot", str(empty), "--out", str(tmp_path / "x")])
+    assert result.exit_code == 1
+    assert "no scenario recorded" in result.output
+
+
+def test_plot_names_an_unknown_figure_and_refuses_a_file_that_is_not_mcap() -> None:
+    bogus = CliRunner().invoke(main, ["plot", __file__, "--figure", "nope"])
+    assert bogus.exit_code == 1 and "unknown figure(s) ['nope']" in bogus.output
+    garbage = CliRunner().invoke(main, ["plot", __file__])
+    assert garbage.exit_code == 1 and "not a readable MCAP file" in garbage.output

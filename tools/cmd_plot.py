@@ -1,0 +1,48 @@
+"""``shoal plot``: the paper's figures from a run's log alone."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from tools.plot import PlotError
+from tools.plot import plot as draw
+
+
+@click.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option(
+    "--out",
+    "-o",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("plots"),
+    help="Folder for the figures (PNG and SVG).",
+)
+@click.option(
+    "--figure",
+    "only",
+    multiple=True,
+    help="Draw only this figure (repeatable): trajectories, distances, formation_error, "
+    "consensus, omega.",
+)
+def plot(file: Path, out: Path, only: tuple[str, ...]) -> None:
+    """Draw the paper's figures from the run recorded in FILE.
+
+    \b
+    trajectories     paths, obstacles, formation snapshots (paper Fig. 1b, 2a, 3a)
+    distances        distances between neighbours and to obstacles (Fig. 2b, 3b)
+    formation_error  each follower's error against the Theorem 1 / Remark 3 bound
+    consensus        σ over time and Algorithm 1's rounds
+    omega            when each agent was evading (Ω = 1)
+    """
+    with click.progressbar(
+        length=len(only) or 5, label="plotting", file=sys.stderr, hidden=not sys.stderr.isatty()
+    ) as bar:
+        try:
+            written = draw(file, out, only=only, progress=lambda _name: bar.update(1))
+        except PlotError as exc:
+            raise click.ClickException(str(exc)) from None
+    for path in written:
+        click.echo(str(path))

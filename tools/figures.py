@@ -1,0 +1,331 @@
+"""The paper's figures, drawn from a scenario and the trajectory a run recorded.
+
+Pure drawing: every function takes the run and returns a matplotlib ``Figure``; nothing here
+reads files or picks a backend (``tools.plot`` does both). Agents are named by their ids, the
+paper's 1..n (1 is the leader) as everywhere in shoal; arrays are indexed from 0. Distances in
+m, times in s of simulated time. A 3-D run is drawn projected on its x–y plane.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
+
+from bus.geometry import FloatArray
+from bus.path import path_positions
+from world.metrics import Summary, clearances, formation_errors, pair_distances, summarize
+from world.scenario import Scenario
+from world.trajectory import Trajectory
+
+SNAPSHOTS = 6  # formation snapshots drawn along the trajectories (start and end included)
+
+
+@dataclass(frozen=True)
+class RunView:
+    """What every figure is drawn from; ``summary`` is recomputed from the trajectory, so a
+    figure never trusts a number the run merely claimed."""
+
+    scenario: Scenario
+    traj: Trajectory
+    label: str  # where the run came from, for titles
+
+    @property
+    def times(self) -> FloatArray:
+        """(T+1,) s: the time of every recorded position."""
+        return np.arange(self.traj.positions.shape[0], dtype=np.float64) * self.traj.dt
+
+    @property
+    def tick_times(self) -> FloatArray:
+        """(T,) s: the start of every tick."""
+        return np.arange(self.traj.ticks, dtype=np.float64) * self.traj.dt
+
+    def summary(self) -> Summary:
+        return summarize(self.scenario, self.traj)
+
+
+def colour(agent: int) -> Any:
+    """One colour per agent, the same in every figure."""
+    return f"C{agent % 10}"
+
+
+def agent_name(column: int) -> str:
+    """The name of the agent in array column ``column`` (id = column + 1)."""
+    return "agent 1 (leader)" if column == 0 else f"agent {column + 1}"
+
+
+def _figure(width: float = 8.0, height: float = 4.5) -> Figure:
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def _snapshot_ticks(view: RunView, count: int = SNAPSHOTS) -> list[int]:
+    last = view.traj.positions.shape[0] - 1
+    return sorted({round(x) for x in np.linspace(0, last, count)})
+
+
+def _omega_at(view: RunView, k: int) -> np.ndarray[Any, np.dtype[np.bool_]]:
+    """Ω of every agent at position index k (the last position takes the last tick's flags)."""
+    return np.asarray(view.traj.omega[min(k, view.traj.ticks - 1)], dtype=np.bool_)
+
+
+def trajectories(view: RunView) -> Figure:
+    """Fig. 1b / 2a / 3a: every agent's path, the obstacles with their trigger discs, the
+    leader's reference path and formation snapshots with the graph's edges (an edge to an
+    evading agent, which its neighbours drop, dashed grey)."""
+    sc, pos = view.scenario, view.traj.positions
+    fig = _figure(9.0, 6.0)
+    ax = fig.add_subplot()
+    for o in sc.obstacles:
+        x, y = o.centre[0], o.centre[1]
+        ax.add_patch(Circle((x, y), o.radius, color="0.35", zorder=1))
+        trigger = o.radius + sc.control.trigger_radius
+        ax.add_patch(Circle((x, y), trigger, fill=False, ls=":", color="0.55", lw=0.8, zorder=1))
+    ref = path_positions(sc.path, view.times)
+    ax.plot(ref[:, 0], ref[:, 1], color="k", lw=0.8, ls="--", label="leader's path", zorder=2)
+    for i in range(sc.n):
+        ax.plot(pos[:, i, 0], pos[:, i, 1], color=colour(i), lw=1.2, label=agent_name(i), zorder=3)
+        evading = np.concatenate([view.traj.omega[:, i], [False]])
+        if evading.any():
+            masked = np.where(evading[:, None], pos[:, i, :2], np.nan)
+            ax.plot(masked[:, 0], masked[:, 1], color=colour(i), lw=3.5, alpha=0.45, zorder=3)
+    shades = np.linspace(0.25, 0.9, len(_snapshot_ticks(view)))
+    for shade, k in zip(shades, _snapshot_ticks(view), strict=True):
+        _draw_formation(ax, view, k, alpha=float(shade))
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(True, lw=0.3)
+    handles, _ = ax.get_legend_handles_labels()
+    handles += [
+        Line2D([], [], color="0.35", marker="o", ls="", ms=9, label="obstacle"),
+        Line2D([], [], color="0.55", ls=":", label="obstacle + trigger radius"),
+        Line2D([], [], color="0.3", lw=3.5, alpha=0.45, label="evading (Ω = 1)"),
+        Line2D([], [], color="0.5", ls="--", lw=0.8, label="edge dropped (evading)"),
+    ]
+    ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    times = ", ".join(f"{k * view.traj.dt:g}" for k in _snapshot_ticks(view))
+    projected = " (x–y projection)" if sc.dim == 3 else ""
+    ax.set_title(f"{view.label}: trajectories{projected}\nformation at t = {times} s")
+    return fig
+
+
+def _draw_formation(ax: Axes, view: RunView, k: int, *, alpha: float) -> None:
+    sc, p = view.scenario, view.traj.positions[k]
+    omega = _omega_at(view, k)
+    for i, j in _edge_columns(sc):
+        dropped = bool(omega[i] or omega[j])
+        ax.plot(
+            [p[i, 0], p[j, 0]],
+            [p[i, 1], p[j, 1]],
+            color="0.5" if dropped else "0.15",
+            ls="--" if dropped else "-",
+            lw=0.8,
+            alpha=alpha,
+            zorder=4,
+        )
+    for i in range(sc.n):
+        ax.plot(
+            p[i, 0],
+            p[i, 1],
+            marker="*" if i == 0 else "o",
+            ms=10 if i == 0 else 6,
+            color=colour(i),
+            mec="k",
+            mew=0.5,
+            alpha=alpha,
+            zorder=5,
+        )
+
+
+def _edge_columns(sc: Scenario) -> list[tuple[int, int]]:
+    """The graph's edges as (smaller, larger) column pairs, each once (scenario files use ids)."""
+    return sorted({(min(i, j) - 1, max(i, j) - 1) for i, j in sc.edges})
+
+
+def distances(view: RunView) -> Figure:
+    """Fig. 2b / 3b: distance between every pair of neighbours over time against the collision
+    distance 2ρ, and (with obstacles) each agent's clearance to the nearest obstacle against ρ."""
+    sc, t = view.scenario, view.times
+    panels = 2 if sc.obstacles else 1
+    fig = _figure(9.0, 3.4 * panels)
+    axes = fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0]
+    pairs = list(itertools.combinations(range(sc.n), 2))
+    dist = pair_distances(view.traj)
+    neighbours = set(_edge_columns(sc))
+    ax = axes[0]
+    for col, (i, j) in enumerate(pairs):
+        if (i, j) in neighbours:
+            ax.plot(t, dist[:, col], lw=1.0, label=f"{i + 1}–{j + 1}")
+    others = [c for c, pair in enumerate(pairs) if pair not in neighbours]
+    if others:
+        ax.plot(
+            t,
+            dist[:, others].min(axis=1),
+            color="0.5",
+            lw=0.8,
+            ls="-.",
+            label="closest non-neighbours",
+        )
+    ax.axhline(2 * sc.agent_radius, color="r", lw=1.0, ls="--", label="collision (2ρ)")
+    ax.set_ylabel("inter-agent distance (m)")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize="small", ncol=4, loc="best")
+    ax.set_title(f"{view.label}: distances between neighbours (min {dist.min():.3f} m)")
+    if sc.obstacles:
+        clear = clearances(sc, view.traj).min(axis=2)
+        ax = axes[1]
+        for i in range(sc.n):
+            ax.plot(t, clear[:, i], color=colour(i), lw=1.0, label=agent_name(i))
+        ax.axhline(sc.agent_radius, color="r", lw=1.0, ls="--", label="collision (ρ)")
+        ax.set_ylabel("clearance to nearest obstacle (m)")
+        ax.set_yscale("symlog", linthresh=1.0)
+        ax.set_ylim(bottom=0)
+        ax.legend(fontsize="small", ncol=3, loc="best")
+        ax.set_title(f"clearance to obstacles (min {clear.min():.3f} m)")
+    for ax in axes:
+        ax.grid(True, lw=0.3)
+    axes[-1].set_xlabel("time (s)")
+    return fig
+
+
+def formation_error(view: RunView) -> Figure:
+    """Each follower's formation error ‖s_i - s_0 - R(θ)δ_i/σ‖_∞ over time, on a log axis, with
+    the tolerance band and the convergence-time bound of Theorem 1 (Remark 3 if directed)."""
+    sc, summary = view.scenario, view.summary()
+    errors = formation_errors(sc, view.traj)
+    floor = sc.tolerance * 1e-3  # the sign term chatters; exact zeros would vanish on a log axis
+    fig = _figure()
+    ax = fig.add_subplot()
+    for f in range(errors.shape[1]):
+        ax.plot(
+            view.tick_times,
+            np.maximum(errors[:, f], floor),
+            color=colour(f + 1),
+            lw=1.0,
+            label=agent_name(f + 1),
+        )
+    ax.axhline(sc.tolerance, color="k", lw=0.8, ls=":", label=f"tolerance {sc.tolerance:g} m")
+    which = "Remark 3" if sc.directed else "Theorem 1"
+    ax.axvline(
+        summary.convergence_bound,
+        color="r",
+        lw=1.2,
+        ls="--",
+        label=f"{which} bound t̄ = {summary.convergence_bound:.2f} s",
+    )
+    if summary.convergence_time is not None:
+        ax.axvline(
+            summary.convergence_time,
+            color="g",
+            lw=1.0,
+            label=f"converged at {summary.convergence_time:.2f} s",
+        )
+    for a, b in _runs(np.asarray(view.traj.omega.any(axis=1), dtype=np.bool_)):
+        ax.axvspan(a * view.traj.dt, b * view.traj.dt, color="0.85", lw=0, zorder=0)
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s) — grey: some agent evading, its slot deliberately left")
+    ax.set_ylabel("formation error (m, ∞-norm)")
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize="small", loc="best")
+    ax.set_title(f"{view.label}: formation error against the convergence bound")
+    return fig
+
+
+def consensus(view: RunView) -> Figure:
+    """σ each agent applies over time and, zoomed on the first epoch in which someone bid above
+    1, Algorithm 1's rounds: every agent's value per round until all hold the maximum."""
+    sc, traj, t = view.scenario, view.traj, view.tick_times
+    fig = _figure(9.0, 6.0)
+    top, bottom = fig.subplots(2, 1)
+    for i in range(sc.n):
+        top.step(
+            t, traj.sigma[:, i], where="post", color=colour(i), lw=1.0, label=f"σ, {agent_name(i)}"
+        )
+    top.step(t, traj.bid.max(axis=1), where="post", color="k", lw=0.6, ls=":", label="largest bid")
+    top.set_xlabel("time (s)")
+    top.set_ylabel("contraction factor σ")
+    top.grid(True, lw=0.3)
+    top.legend(fontsize="small", ncol=3, loc="best")
+    top.set_title(f"{view.label}: scale agreed by max-consensus (L_G = {sc.rounds} rounds/epoch)")
+    start = _first_contracting_epoch(traj.bid, sc.rounds)
+    if start is None:
+        bottom.text(
+            0.5,
+            0.5,
+            "no agent bid above 1: the formation never had to contract",
+            ha="center",
+            va="center",
+            transform=bottom.transAxes,
+        )
+        bottom.set_axis_off()
+        return fig
+    # Values announced at tick start + r have been through r rounds; after the epoch's L_G
+    # rounds, the σ each agent applies at the next epoch's first tick is round L_G's value.
+    k = sc.rounds
+    held = traj.bid[start : start + k]
+    if start + k < traj.ticks:
+        held = np.concatenate([held, traj.sigma[start + k][None]])
+    rounds = np.arange(held.shape[0])
+    for i in range(sc.n):
+        bottom.plot(
+            rounds, held[:, i], marker="o", ms=10 - i % 6, color=colour(i), label=agent_name(i)
+        )
+    bottom.set_xticks(
+        rounds, [f"{r}" + (" (σ applied)" if r == k else "") for r in rounds.tolist()]
+    )
+    bottom.set_xlabel(f"round of Algorithm 1 (epoch starting at t = {start * traj.dt:g} s)")
+    bottom.set_ylabel("value held (bid)")
+    bottom.grid(True, lw=0.3)
+    bottom.legend(fontsize="small", ncol=3, loc="best")
+    return fig
+
+
+def _first_contracting_epoch(bid: FloatArray, rounds: int) -> int | None:
+    for start in range(0, bid.shape[0], rounds):
+        if float(bid[start : start + rounds].max()) > 1.0:
+            return start
+    return None
+
+
+def omega_timeline(view: RunView) -> Figure:
+    """When each agent was on a collision course (Ω = 1) and evading."""
+    sc, traj = view.scenario, view.traj
+    fig = _figure(9.0, 0.5 * sc.n + 1.6)
+    ax = fig.add_subplot()
+    for i in range(sc.n):
+        spans = _runs(traj.omega[:, i])
+        ax.broken_barh(
+            [(a * traj.dt, (b - a) * traj.dt) for a, b in spans],
+            (i - 0.35, 0.7),
+            color=colour(i),
+        )
+    ax.set_yticks(range(sc.n), [agent_name(i) for i in range(sc.n)])
+    ax.set_ylim(sc.n - 0.5, -0.5)
+    ax.set_xlim(0, traj.ticks * traj.dt)
+    ax.set_xlabel("time (s)")
+    ax.grid(True, axis="x", lw=0.3)
+    episodes = sum(len(_runs(traj.omega[:, i])) for i in range(sc.n))
+    ax.set_title(f"{view.label}: Ω timeline ({episodes} evasion episodes)")
+    return fig
+
+
+def _runs(flags: np.ndarray[Any, np.dtype[np.bool_]]) -> list[tuple[int, int]]:
+    """[start, end) tick spans where flags hold."""
+    padded = np.concatenate([[False], flags, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(padded))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+FIGURES = {
+    "trajectories": trajectories,
+    "distances": distances,
+    "formation_error": formation_error,
+    "consensus": consensus,
+    "omega": omega_timeline,
+}

@@ -1,0 +1,78 @@
+"""``shoal plot``'s work: read a run from its MCAP log and save every figure as PNG and SVG."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from mcap.exceptions import McapError
+
+from tools.mcap_read import read_documents, read_trajectory
+from world.errors import ScenarioError
+from world.loader import parse_scenario
+
+
+class PlotError(ValueError):
+    """The log cannot be plotted (no scenario, no ticks, matplotlib missing)."""
+
+
+FORMATS = ("png", "svg")
+
+
+def load_view(path: Path) -> object:
+    """The run recorded in ``path`` as a ``tools.figures.RunView``."""
+    from tools.figures import RunView  # matplotlib is an optional extra; import on use
+
+    try:
+        docs = read_documents(path)
+    except (McapError, OSError) as exc:
+        raise PlotError(
+            f"{path}: not a readable MCAP file ({exc}); a killed run's log needs "
+            "`shoal recover` first"
+        ) from None
+    if "scenario" not in docs:
+        raise PlotError(f"{path}: no scenario recorded in the log")
+    try:
+        scenario = parse_scenario(str(docs["scenario"].get("yaml", "")))
+    except ScenarioError as exc:
+        raise PlotError(f"{path}: the recorded scenario does not load: {exc}") from None
+    try:
+        traj = read_trajectory(path, dt=scenario.dt)
+    except ValueError as exc:
+        raise PlotError(str(exc)) from None
+    clock = docs.get("summary", {}).get("clock", "unfinished")
+    return RunView(scenario=scenario, traj=traj, label=f"{scenario.name} ({clock})")
+
+
+def plot(
+    path: Path,
+    out: Path,
+    *,
+    only: tuple[str, ...] = (),
+    progress: Callable[[str], None] | None = None,
+) -> list[Path]:
+    """Draw the figures (all, or those named in ``only``) into ``out``; the files written."""
+    try:
+        from tools.figures import FIGURES, RunView
+    except ImportError as exc:
+        raise PlotError(
+            f"shoal plot needs matplotlib ({exc}); install it with: pip install 'shoal[plot]'"
+        ) from None
+    unknown = set(only) - set(FIGURES)
+    if unknown:
+        raise PlotError(f"unknown figure(s) {sorted(unknown)}; choose from {sorted(FIGURES)}")
+    view = load_view(path)
+    assert isinstance(view, RunView)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, draw in FIGURES.items():
+        if only and name not in only:
+            continue
+        figure = draw(view)
+        for fmt in FORMATS:
+            target = out / f"{view.scenario.name}-{name}.{fmt}"
+            figure.savefig(target, dpi=150, bbox_inches="tight")
+            written.append(target)
+        if progress is not None:
+            progress(name)
+    return written
