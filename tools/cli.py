@@ -24,6 +24,7 @@ COMMANDS = {
     "recover": "tools.cmd_recover:recover",
     "verify": "tools.cmd_verify:verify",
     "replay": "tools.cmd_replay:replay",
+    "export": "tools.cmd_export:export",
     "plot": "tools.cmd_plot:plot",
     "floor": "tools.cmd_floor:floor",
 }

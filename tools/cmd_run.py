@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from bus.runtime import exit_on_signals
+from tools.cmd_export import export_beside
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.launch import RunPlan, launch
 from tools.options import check_run_id
@@ -47,6 +48,11 @@ from world.loader import builtin_names
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--start-timeout", default=60.0, help="Seconds for every process to come up.")
+@click.option(
+    "--foxglove/--no-foxglove",
+    default=True,
+    help="Write Foxglove views beside the log, <log>.foxglove.mcap (docs/foxglove.md).",
+)
 def run(
     scenario: str,
     mode: str,
@@ -56,6 +62,7 @@ def run(
     run_id: str | None,
     as_json: bool,
     start_timeout: float,
+    foxglove: bool,
 ) -> None:
     """Run SCENARIO with one OS process per agent, a world, a logger (and a router).
 
@@ -81,6 +88,7 @@ def run(
         result = launch(plan)
     except ChildFailed as exc:
         raise click.ClickException(str(exc)) from None
+    views = export_beside(plan.out, progress=not as_json) if foxglove else None
     summary = json_safe(result.summary)
     if as_json:
         extra = {
@@ -88,6 +96,7 @@ def run(
             "wall_s": round(result.wall_s, 3),
             "startup_s": result.startup_s,
             "mcap": str(plan.out),
+            "foxglove": str(views.out) if views else None,
         }
         click.echo(json.dumps({**summary, **extra}))
     else:
@@ -97,3 +106,5 @@ def run(
             f"all agents up in {result.startup_s:.1f} s"
         )
         click.echo(f"{'log':<24}  {plan.out}")
+        if views:
+            click.echo(f"{'foxglove views':<24}  {views.out}")

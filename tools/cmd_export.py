@@ -1,0 +1,86 @@
+"""``shoal export``: Foxglove views of a run, written beside its raw log (docs/foxglove.md)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from bus.runtime import warn
+from tools.foxglove import ViewOptions
+from tools.foxglove_export import ExportError, ExportResult
+from tools.foxglove_export import export as write_views
+
+
+def _advance(bar: Any, done: int, total: int) -> None:
+    bar.length = total
+    bar.update(done - bar.pos)
+
+
+def with_progress(
+    raw: Path, out: Path | None, options: ViewOptions, *, show: bool = True
+) -> ExportResult:
+    """Export with a progress bar on stderr (shown only on a terminal, as other commands do)."""
+    hidden = not (show and sys.stderr.isatty())
+    with click.progressbar(length=1, label="foxglove views", file=sys.stderr, hidden=hidden) as bar:
+        return write_views(raw, out, options=options, progress=lambda k, n: _advance(bar, k, n))
+
+
+def export_beside(raw: Path, *, progress: bool) -> ExportResult | None:
+    """``shoal run``'s last step. A failure is reported and not fatal: the raw log is complete
+    and untouched either way, and ``shoal export`` can be run on it later."""
+    try:
+        return with_progress(raw, None, ViewOptions(), show=progress)
+    except Exception as exc:  # any bug here must not turn a good run into a failed one
+        warn(f"shoal run: no Foxglove views ({type(exc).__name__}: {exc}); the log is complete")
+        return None
+
+
+def describe(result: ExportResult) -> str:
+    return (
+        f"{result.out}: {result.messages} messages from {result.ticks} tick records, "
+        f"{result.bytes / 1e6:.1f} MB in {result.seconds:.1f} s"
+    )
+
+
+@click.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option(
+    "-o",
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="The views file [default: beside FILE, its .mcap replaced by .foxglove.mcap].",
+)
+@click.option(
+    "--scene-hz",
+    type=click.FloatRange(min=0.1, max=1000.0),
+    default=ViewOptions.scene_hz,
+    help="Rate of the 3D scene and the agents' frames, per second of simulated time.",
+)
+@click.option(
+    "--plot-hz",
+    type=click.FloatRange(min=0.1, max=1000.0),
+    default=ViewOptions.plot_hz,
+    help="Rate of the scalar channels, per simulated second (every tick if above 1/dt).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def export(file: Path, out: Path | None, scene_hz: float, plot_hz: float, as_json: bool) -> None:
+    """Write Foxglove views of the run logged in FILE: a 3D scene, agent frames, a log and
+    plottable metrics, as Foxglove JSON channels in a new MCAP file (FILE is not changed).
+
+    `shoal run` does this by itself at the end of a run; this is for older logs, or to choose
+    other rates. Open the views file in Foxglove (docs/foxglove.md).
+    """
+    options = ViewOptions(scene_hz=scene_hz, plot_hz=plot_hz)
+    try:
+        result = with_progress(file, out, options)
+    except ExportError as exc:
+        raise click.ClickException(str(exc)) from None
+    if as_json:
+        fields = ("messages", "ticks", "seconds", "bytes")
+        click.echo(json.dumps({"out": str(result.out)} | {k: getattr(result, k) for k in fields}))
+    else:
+        click.echo(describe(result))
