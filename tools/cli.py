@@ -27,6 +27,7 @@ COMMANDS = {
     "export": "tools.cmd_export:export",
     "plot": "tools.cmd_plot:plot",
     "floor": "tools.cmd_floor:floor",
+    "compose": "tools.cmd_compose:compose",
 }
 
 

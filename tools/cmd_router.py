@@ -6,11 +6,14 @@ import threading
 from pathlib import Path
 
 import click
+import zenoh
 
 from bus.errors import WireError
-from bus.runtime import announce_ready, exit_on_signals
+from bus.keys import Keys
+from bus.links import watch_presence
+from bus.runtime import Inbox, announce_ready, exit_on_signals
 from bus.zconfig import zenoh_config
-from tools.options import open_session
+from tools.options import check_run_id, open_session
 
 
 @click.command()
@@ -24,13 +27,46 @@ from tools.options import open_session
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     default=None,
 )
-def router(listen: tuple[str, ...], connect: tuple[str, ...], config_file: Path | None) -> None:
-    """Run a Zenoh router until SIGINT/SIGTERM."""
+@click.option(
+    "--exit-after-run",
+    metavar="RUN",
+    callback=check_run_id,
+    help="Exit 0 once run RUN is over: its world came and went and every process of the run "
+    "has left (one-shot deployments such as docker compose, where the router must end too).",
+)
+def router(
+    listen: tuple[str, ...],
+    connect: tuple[str, ...],
+    config_file: Path | None,
+    exit_after_run: str | None,
+) -> None:
+    """Run a Zenoh router until SIGINT/SIGTERM (or until run RUN is over)."""
     exit_on_signals()
     try:
         conf = zenoh_config(mode="router", listen=listen, connect=connect, config_file=config_file)
     except WireError as exc:
         raise click.ClickException(str(exc)) from None
-    with open_session(conf, "router"):
+    with open_session(conf, "router") as session:
         announce_ready(f"router {' '.join(listen)}")
-        threading.Event().wait()  # until a signal turns into SystemExit
+        if exit_after_run is None:
+            threading.Event().wait()  # until a signal turns into SystemExit
+        else:
+            wait_for_run_end(session, Keys(exit_after_run))
+
+
+def wait_for_run_end(session: zenoh.Session, keys: Keys) -> None:
+    """Return once the run's world token has appeared and vanished and no token of the run is
+    left (agents leave with the world, the logger after draining): the router's own session
+    sees every token routed through it, so no extra process is needed to watch the run."""
+    inbox = Inbox()
+    held = watch_presence(session, keys.alive_everyone, inbox)
+    present: set[str] = set()
+    world_seen = False
+    while not (world_seen and not present):
+        arrival = inbox.wait()
+        if arrival.kind == "up":
+            present.add(arrival.key)
+            world_seen = world_seen or arrival.key == keys.alive_world
+        elif arrival.kind == "down":
+            present.discard(arrival.key)
+    del held
