@@ -21,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
@@ -72,11 +73,22 @@ class Swarm:
     ) -> None:
         self.stop()
 
-    def spawn(self, name: str, role: str, args: list[str], *, ready_pipe: bool = False) -> Child:
+    def spawn(
+        self,
+        name: str,
+        role: str,
+        args: list[str],
+        *,
+        ready_pipe: bool = False,
+        prefix: Sequence[str] = (),
+    ) -> Child:
+        """Start ``shoal <args>`` as a child. ``prefix`` goes before the interpreter, e.g.
+        ``ip netns exec NS`` to start it on another (namespace) host; the prefix must exec the
+        command in place, so that the child's pid, signals and PDEATHSIG stay the command's."""
         log = self.log_dir / f"{name.replace(' ', '-')}.log"
         with log.open("wb") as err:
             popen = subprocess.Popen(
-                [sys.executable, "-m", "tools", *args],
+                [*prefix, sys.executable, "-m", "tools", *args],
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.PIPE if ready_pipe else subprocess.DEVNULL,
                 stderr=err,
