@@ -7,6 +7,12 @@ own token once ready. Per tick (lockstep): sensing arrives → ``announce`` → 
 once every neighbour that is still present has announced the same tick → ``act`` → publish the
 command. A neighbour whose token vanishes is treated as gone (its edges dropped). When the
 world's token vanishes the agent stops commanding motion and exits.
+
+Realtime (docs/wire.md §3, §4): the agent acts at once on its sensing with the freshest state of
+each neighbour, provided it is at most ``max_age`` ticks old (agent/delivery.py); a neighbour
+that vanished and comes back is followed again as soon as its states flow. ``--drop-rate``
+throws away a seeded random fraction of incoming neighbour states, to measure how the formation
+copes with lost messages.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from dataclasses import dataclass
 import zenoh
 
 from agent.controller import Controller
+from agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
 from bus import codec
 from bus.errors import DecodeError
 from bus.keys import Keys, agent_of
@@ -35,13 +42,20 @@ class AgentOptions:
     run: str
     agent_id: int
     start_timeout: float = 60.0  # s to wait for the world and its configuration
+    drop_rate: float = 0.0  # fault injection: fraction of incoming neighbour states thrown away
+    drop_seed: int = 0  # seeds the drops (with the agent id)
+    max_age: int = MAX_AGE  # realtime: ticks after which a neighbour's state is not followed
 
 
 def fetch_config(
     session: zenoh.Session, keys: Keys, agent_id: int, timeout: float
 ) -> tuple[AgentConfig, str]:
-    """Ask the world's queryable for this agent's configuration and the run's clock."""
+    """Ask the world's queryable for this agent's configuration and the run's clock. The world
+    answers with an error when it will not take this agent (back): that text is the abort's."""
     for reply in session.get(keys.config(agent_id), timeout=timeout):
+        if reply.err is not None:
+            why = reply.err.payload.to_bytes().decode(errors="replace")
+            raise AgentAbort(f"agent {agent_id}: the world refuses it: {why}")
         if reply.ok is not None:
             try:
                 config, clock = codec.decode_assignment(reply.ok.payload.to_bytes())
@@ -66,6 +80,13 @@ class AgentNode:
         config, self.clock = fetch_config(session, k, options.agent_id, options.start_timeout)
         self.controller = Controller(config)
         me = options.agent_id
+        if options.drop_rate > 0 and self.clock != "realtime":
+            raise AgentAbort(
+                f"agent {me}: --drop-rate needs the realtime clock (a lockstep run would wait "
+                "for a dropped state forever)"
+            )
+        self.dropper = Dropper(options.drop_rate, options.drop_seed, me)
+        self.ages = AgeStats()
         self._held = [subscribe(session, k.sensing(me), self.inbox)]
         self._held += [
             subscribe(session, k.state(j), self.inbox) for j in self.controller.listens_to
@@ -102,10 +123,8 @@ class AgentNode:
             self._maybe_act()
 
     def _take(self, arrival: Arrival) -> None:
-        if arrival.kind == "down":
-            j = agent_of(arrival.key)
-            if j is not None and j != self.options.agent_id:
-                self.gone.add(j)
+        if arrival.kind in ("up", "down"):
+            self._presence(arrival)
             return
         if arrival.kind != "data":
             return
@@ -113,7 +132,11 @@ class AgentNode:
             if arrival.key.endswith("/sensing"):
                 self._sensed(codec.decode_sensing(arrival.payload))
             else:
+                if self.dropper.drop():
+                    return  # injected loss: as if the message never came
                 state = codec.decode_state(arrival.payload)
+                if self.clock == "realtime" and self.tick < 0:
+                    return  # heard before our first sensing (we are rejoining): not yet usable
                 self._check_state(state, arrival.key)
                 if self.clock == "realtime":
                     old = self.latest.get(state.agent_id)
@@ -127,6 +150,30 @@ class AgentNode:
                 warn(
                     f"agent {self.options.agent_id}: dropped a bad message on {arrival.key}: {exc}"
                 )
+
+    def _presence(self, arrival: Arrival) -> None:
+        """A neighbour's token vanished: stop following it and forget its last state. It came
+        (back) up: in realtime, follow it again once its states flow (the world takes a
+        restarted agent back); in lockstep a gone neighbour stays gone, because the world never
+        takes it back and waiting for its state would stall this agent for good."""
+        j = agent_of(arrival.key)
+        if j is None or j == self.options.agent_id:
+            return
+        if arrival.kind == "down":
+            self.gone.add(j)
+            self.latest.pop(j, None)
+        elif self.clock == "realtime":
+            self.gone.discard(j)
+
+    def stats(self) -> str:
+        """One line for stderr at exit: neighbour states heard and dropped, and their ages."""
+        d, a = self.dropper, self.ages
+        return (
+            f"agent {self.options.agent_id}: neighbour states heard {d.offered}, "
+            f"injected drops {d.dropped} of {d.offered}, age p50 {a.quantile(0.5)} "
+            f"p99 {a.quantile(0.99)} max {max(a.histogram, default=None)} ticks, "
+            f"stale edges {a.stale_edges}"
+        )
 
     def _check_state(self, state: AgentState, key: str) -> None:
         """A neighbour's state must be its own, of our dimension, and of a tick it can have
@@ -160,21 +207,22 @@ class AgentNode:
 
     def _maybe_act(self) -> None:
         """Lockstep: act once every present neighbour has announced this tick. Realtime: act at
-        once, on the freshest state heard from each present neighbour."""
+        once, on the freshest state heard from each present neighbour that is at most
+        ``max_age`` ticks old (agent/delivery.py)."""
         if self.pending is None:
             return
         sensing, state = self.pending
         needed = [j for j in self.controller.listens_to if j not in self.gone]
         if self.clock == "realtime":
-            heard = self.latest
-            needed = [j for j in needed if j in heard]
+            max_age = self.options.max_age
+            use, ages = freshest(self.latest, needed, sensing.tick, max_age)
+            self.ages.add(ages, max_age)
         else:
             heard = self.heard[sensing.tick]
             if any(j not in heard for j in needed):
                 return
-        self.memory, command = self.controller.act(
-            self.memory, sensing, {j: heard[j] for j in needed}
-        )
+            use = {j: heard[j] for j in needed}
+        self.memory, command = self.controller.act(self.memory, sensing, use)
         self.command_out.put(codec.encode_report(state, command))
         self.pending = None
         for tick in [t for t in self.heard if t <= sensing.tick]:

@@ -52,6 +52,14 @@ class Keys:
     def commands(self) -> str:
         return f"{self.root}/agent/*/cmd"
 
+    @property
+    def states(self) -> str:
+        return f"{self.root}/agent/*/state"
+
+    @property
+    def sensings(self) -> str:
+        return f"{self.root}/agent/*/sensing"
+
     def config(self, agent: int) -> str:
         """Queryable of the world: the agent's configuration."""
         return f"{self.root}/world/config/{agent}"

@@ -29,7 +29,8 @@ def announce_ready(what: str) -> None:
 class Arrival:
     """Something a Zenoh callback handed to the process's main loop.
 
-    kind: "data" (a sample), "up" / "down" (a liveliness token appeared / vanished).
+    kind: "data" (a sample), "up" / "down" (a liveliness token appeared / vanished), or
+    "refused" (the world turned down agent ``key``'s configuration query: a lockstep rejoin).
     """
 
     kind: str

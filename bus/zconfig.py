@@ -4,7 +4,9 @@ Order of precedence, lowest first: Zenoh's defaults; a config file (``--zenoh-co
 ``ZENOH_CONFIG`` environment variable, as zenoh itself reads it); ``ZENOH_CONFIG_OVERRIDE``
 (``key=json5;key=json5``, rmw_zenoh's convention); then what shoal sets explicitly: the mode,
 the connect and listen endpoints, and multicast scouting, which is off unless asked for. A
-client with no config file or override of its own retries its router for 30 s.
+client with no config file or override of its own retries its router for 30 s. In the secured
+mode (``secure``, see bus/secure.py) shoal also sets TLS, usrpwd and, for the router, the ACL,
+and refuses any endpoint that is not ``tls/``.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 import zenoh
 
 from bus.errors import WireError
+from bus.secure import Identity, check_tls_endpoints, secure_settings
 
 MODES = ("client", "peer", "router")
 CLIENT_CONNECT_MS = 30_000  # how long a client keeps trying to reach its router
@@ -29,10 +32,16 @@ def zenoh_config(
     listen: Sequence[str] = (),
     config_file: Path | None = None,
     multicast: bool = False,
+    secure: Identity | None = None,
 ) -> zenoh.Config:
-    """A Zenoh configuration for a shoal process."""
+    """A Zenoh configuration for a shoal process (secured if ``secure`` is given)."""
     if mode not in MODES:
         raise WireError(f"zenoh mode {mode!r}: use one of {', '.join(MODES)}")
+    if secure is not None:
+        check_tls_endpoints([*connect, *listen])
+        if multicast or mode == "peer":
+            # Peers found by scouting would link to each other directly, around the router's ACL.
+            raise WireError("secured mode: clients of one router only (no peers, no multicast)")
     path = config_file or (
         Path(os.environ["ZENOH_CONFIG"]) if os.environ.get("ZENOH_CONFIG") else None
     )
@@ -58,6 +67,9 @@ def zenoh_config(
     _insert(conf, "scouting/multicast/enabled", json.dumps(multicast))
     if mode == "router":
         _insert(conf, "scouting/delay", "0")  # else a router's open() blocks 500 ms
+    if secure is not None:
+        for key, value in secure_settings(secure, mode).items():
+            _insert(conf, key, json.dumps(value))
     return conf
 
 

@@ -126,7 +126,14 @@ class Run:
 
 
 def start_run(
-    swarm: Swarm, session: zenoh.Session, router: str, scenario: str, run: str, out: Path
+    swarm: Swarm,
+    session: zenoh.Session,
+    router: str,
+    scenario: str,
+    run: str,
+    out: Path,
+    *,
+    clock: str = "lockstep",
 ) -> Run:
     common = ["--run", run, "--connect", router]
     watcher = Watcher(session, run)
@@ -135,7 +142,7 @@ def start_run(
         "logger", "logger", ["logger", "--out", str(out), *common], ready_pipe=True
     )
     expect = ["--expect", "logger", "--expect", "monitor"]
-    world = swarm.spawn("world", "world", ["world", scenario, *common, *expect])
+    world = swarm.spawn("world", "world", ["world", scenario, *common, *expect, "--clock", clock])
     agents = [
         swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
         for i in range(1, load_scenario(scenario).n + 1)

@@ -20,6 +20,7 @@ COMMANDS = {
     "world": "tools.cmd_world:world",
     "agent": "tools.cmd_agent:agent",
     "logger": "tools.cmd_logger:logger",
+    "certs": "tools.cmd_certs:certs",
     "inspect": "tools.cmd_inspect:inspect",
     "recover": "tools.cmd_recover:recover",
     "verify": "tools.cmd_verify:verify",

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from agent.process import AgentAbort, AgentNode, AgentOptions
+from bus.acl import agent_name
 from bus.runtime import exit_on_signals, warn
 from tools.options import bus_options, client_config, open_session
 
@@ -16,18 +17,38 @@ from tools.options import bus_options, client_config, open_session
 @click.option("--id", "agent_id", type=click.IntRange(min=1), required=True, help="Agent id.")
 @bus_options
 @click.option("--start-timeout", default=60.0, help="Seconds to wait for the world.")
+@click.option(
+    "--drop-rate",
+    type=click.FloatRange(min=0.0, max=1.0, max_open=True),
+    default=0.0,
+    envvar="SHOAL_DROP_RATE",
+    help="Fault injection (realtime only): throw away this fraction of incoming neighbour "
+    "states, counted and reported on stderr at exit.",
+)
+@click.option(
+    "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
+)
 def agent(
     agent_id: int,
     run_id: str,
     connect: tuple[str, ...],
     zenoh_config: Path | None,
     multicast: bool,
+    secure: Path | None,
     start_timeout: float,
+    drop_rate: float,
+    drop_seed: int,
 ) -> None:
     """Run agent ID of run RUN: fetch its configuration from the world and follow the laws."""
     exit_on_signals()
-    options = AgentOptions(run=run_id, agent_id=agent_id, start_timeout=start_timeout)
-    conf = client_config(connect, zenoh_config, multicast)
+    options = AgentOptions(
+        run=run_id,
+        agent_id=agent_id,
+        start_timeout=start_timeout,
+        drop_rate=drop_rate,
+        drop_seed=drop_seed,
+    )
+    conf = client_config(connect, zenoh_config, multicast, secure, agent_name(agent_id))
     with open_session(conf, f"agent {agent_id}") as session:
         try:
             node = AgentNode(options, session)
@@ -38,5 +59,6 @@ def agent(
         finally:
             if node.dropped:
                 warn(f"agent {agent_id}: {node.dropped} bad messages dropped")
+            warn(node.stats())
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
             warn(f"agent {agent_id}: peak_rss_kb {peak}")

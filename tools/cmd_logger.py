@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from bus.acl import LOGGER
 from bus.runtime import exit_on_signals
 from tools.logger import run_logger
 from tools.options import bus_options, client_config, open_session
@@ -17,10 +18,16 @@ from tools.options import bus_options, client_config, open_session
 )
 @bus_options
 def logger(
-    out: Path, run_id: str, connect: tuple[str, ...], zenoh_config: Path | None, multicast: bool
+    out: Path,
+    run_id: str,
+    connect: tuple[str, ...],
+    zenoh_config: Path | None,
+    multicast: bool,
+    secure: Path | None,
 ) -> None:
     """Record every message of run RUN into OUT until the run ends (or SIGINT/SIGTERM)."""
     exit_on_signals()
-    with open_session(client_config(connect, zenoh_config, multicast), "logger") as session:
+    conf = client_config(connect, zenoh_config, multicast, secure, LOGGER)
+    with open_session(conf, "logger") as session:
         count = run_logger(session, run=run_id, out=out)
     click.echo(f"{count} messages written to {out}", err=True)

@@ -8,17 +8,23 @@ from pathlib import Path
 import click
 import zenoh
 
+from bus.acl import ROUTER
 from bus.errors import WireError
 from bus.keys import Keys
 from bus.links import watch_presence
 from bus.runtime import Inbox, announce_ready, exit_on_signals
+from bus.secure import Identity, Material
 from bus.zconfig import zenoh_config
 from tools.options import check_run_id, open_session
 
 
 @click.command()
 @click.option(
-    "--listen", "-l", multiple=True, default=["tcp/127.0.0.1:7447"], help="Endpoint to listen on."
+    "--listen",
+    "-l",
+    multiple=True,
+    help="Endpoint to listen on (repeatable) [default: tcp/127.0.0.1:7447; with --secure, "
+    "tls/127.0.0.1:7447].",
 )
 @click.option("--connect", "-e", multiple=True, help="Another router to mesh with (repeatable).")
 @click.option(
@@ -34,16 +40,31 @@ from tools.options import check_run_id, open_session
     help="Exit 0 once run RUN is over: its world came and went and every process of the run "
     "has left (one-shot deployments such as docker compose, where the router must end too).",
 )
+@click.option(
+    "--secure",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="Secured mode: TLS with mutual authentication, the users' passwords and the run's "
+    "access rules, all from DIR (made by `shoal certs DIR`; docs/security.md).",
+)
 def router(
     listen: tuple[str, ...],
     connect: tuple[str, ...],
     config_file: Path | None,
     exit_after_run: str | None,
+    secure: Path | None,
 ) -> None:
     """Run a Zenoh router until SIGINT/SIGTERM (or until run RUN is over)."""
     exit_on_signals()
+    listen = listen or (f"{'tls' if secure else 'tcp'}/127.0.0.1:7447",)
+    identity = Identity(Material(secure), ROUTER) if secure else None
     try:
-        conf = zenoh_config(mode="router", listen=listen, connect=connect, config_file=config_file)
+        conf = zenoh_config(
+            mode="router",
+            listen=listen,
+            connect=connect,
+            config_file=config_file,
+            secure=identity,
+        )
     except WireError as exc:
         raise click.ClickException(str(exc)) from None
     with open_session(conf, "router") as session:

@@ -8,7 +8,10 @@ from pathlib import Path
 
 import click
 
+from bus.errors import WireError
 from bus.runtime import exit_on_signals
+from bus.secure import Material
+from tools.certs import CertError
 from tools.cmd_export import export_beside
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.launch import RunPlan, launch
@@ -53,6 +56,29 @@ from world.loader import builtin_names
     default=True,
     help="Write Foxglove views beside the log, <log>.foxglove.mcap (docs/foxglove.md).",
 )
+@click.option(
+    "--drop-rate",
+    type=click.FloatRange(min=0.0, max=1.0, max_open=True),
+    default=0.0,
+    envvar="SHOAL_DROP_RATE",
+    help="Fault injection, realtime only: every agent throws away this fraction of incoming "
+    "neighbour states (seeded, counted).",
+)
+@click.option(
+    "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
+)
+@click.option(
+    "--secure",
+    is_flag=True,
+    help="Secured mode: TLS with mutual authentication, a password per process and the "
+    "router's access rules, with fresh certificates for this run (docs/security.md).",
+)
+@click.option(
+    "--secure-dir",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="Secured mode with the material in DIR (`shoal certs DIR`), e.g. for a router "
+    "started by hand with --secure DIR; the run id defaults to the one DIR was made for.",
+)
 def run(
     scenario: str,
     mode: str,
@@ -63,6 +89,10 @@ def run(
     as_json: bool,
     start_timeout: float,
     foxglove: bool,
+    drop_rate: float,
+    drop_seed: int,
+    secure: bool,
+    secure_dir: Path | None,
 ) -> None:
     """Run SCENARIO with one OS process per agent, a world, a logger (and a router).
 
@@ -70,7 +100,21 @@ def run(
     simulator's bit for bit, and the whole run is recorded in an MCAP file.
     """
     exit_on_signals()
+    if drop_rate > 0 and mode != "realtime":
+        raise click.BadParameter(
+            "needs --mode realtime: a lockstep run waits for every state, so a dropped one "
+            "would stall it forever",
+            param_hint="--drop-rate",
+        )
     scn = load_for_cli(scenario)
+    if secure and connect and secure_dir is None:
+        raise click.BadParameter(
+            "a router started elsewhere enforces the rules it was given: pass --secure-dir "
+            "with the directory it was started with",
+            param_hint="--secure",
+        )
+    if secure_dir is not None:
+        run_id = _check_material(secure_dir, run_id, scn.n)
     run_id = run_id or uuid.uuid4().hex[:8]
     plan = RunPlan(
         scenario=scenario if scenario in builtin_names() else str(Path(scenario).resolve()),
@@ -83,10 +127,14 @@ def run(
         connect=connect,
         start_timeout=start_timeout,
         progress=not as_json,
+        drop_rate=drop_rate,
+        drop_seed=drop_seed,
+        secure=secure or secure_dir is not None,
+        secure_dir=secure_dir,
     )
     try:
         result = launch(plan)
-    except ChildFailed as exc:
+    except (ChildFailed, CertError) as exc:
         raise click.ClickException(str(exc)) from None
     views = export_beside(plan.out, progress=not as_json) if foxglove else None
     summary = json_safe(result.summary)
@@ -97,6 +145,7 @@ def run(
             "startup_s": result.startup_s,
             "mcap": str(plan.out),
             "foxglove": str(views.out) if views else None,
+            "secure": plan.secure,
         }
         click.echo(json.dumps({**summary, **extra}))
     else:
@@ -106,5 +155,35 @@ def run(
             f"all agents up in {result.startup_s:.1f} s"
         )
         click.echo(f"{'log':<24}  {plan.out}")
+        if plan.secure:
+            click.echo(f"{'secured':<24}  TLS (mutual), passwords, router ACL for run {run_id}")
         if views:
             click.echo(f"{'foxglove views':<24}  {views.out}")
+    if summary.get("aborted"):
+        raise click.ClickException(f"the run ended early: {summary['aborted']}")
+    if result.lost:
+        raise click.ClickException(
+            f"agent process(es) died during the run: {', '.join(result.lost)} "
+            "(the world held them still and finished without them)"
+        )
+
+
+def _check_material(secure_dir: Path, run_id: str | None, agents: int) -> str:
+    """The run id the material in ``secure_dir`` was made for, if it fits this run: the
+    router's rules name one run and agents 1..N, and anything else would be refused."""
+    try:
+        made_for, made_agents = Material(secure_dir).scope()
+    except (WireError, KeyError, ValueError) as exc:
+        raise click.BadParameter(f"{secure_dir}: {exc}", param_hint="--secure-dir") from None
+    if run_id not in (None, made_for):
+        raise click.BadParameter(
+            f"{secure_dir} was made for run {made_for!r}, not {run_id!r}; re-run "
+            f"`shoal certs {secure_dir} --run {run_id} --agents {agents}`",
+            param_hint="--secure-dir",
+        )
+    if made_agents < agents:
+        raise click.BadParameter(
+            f"{secure_dir} has identities for {made_agents} agents; the scenario has {agents}",
+            param_hint="--secure-dir",
+        )
+    return made_for

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from bus.acl import WORLD
 from bus.runtime import exit_on_signals
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.options import bus_options, client_config, open_session
@@ -42,6 +43,7 @@ def world(
     connect: tuple[str, ...],
     zenoh_config: Path | None,
     multicast: bool,
+    secure: Path | None,
     expect: tuple[str, ...],
     clock: str,
     speed: float,
@@ -54,7 +56,8 @@ def world(
     options = WorldOptions(
         run=run_id, expect=expect, clock=clock, speed=speed, start_timeout=start_timeout
     )
-    with open_session(client_config(connect, zenoh_config, multicast), "world") as session:
+    conf = client_config(connect, zenoh_config, multicast, secure, WORLD)
+    with open_session(conf, "world") as session:
         try:
             w = World(scn, options, session)
             w.wait_for_everyone()
@@ -62,3 +65,5 @@ def world(
         except WorldAbort as exc:
             raise click.ClickException(str(exc)) from None
     click.echo(json.dumps(summary) if as_json else render_summary(summary))
+    if summary.get("aborted"):
+        raise click.ClickException(f"the run ended early: {summary['aborted']}")

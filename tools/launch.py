@@ -11,21 +11,24 @@ import re
 import socket
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import click
 
 from bus import codec
+from bus.acl import MONITOR
 from bus.errors import DecodeError
 from bus.keys import Keys
 from bus.links import subscribe, watch_presence
-from bus.runtime import Inbox
+from bus.runtime import Inbox, warn
+from tools.certs import make_material
 from tools.options import client_config, open_session
-from tools.swarm import Swarm
+from tools.swarm import ChildFailed, Swarm
 
 _PEAK_RSS = re.compile(r"peak_rss_kb (\d+)")
+_STATS = re.compile(r"^agent \d+: neighbour states heard .*$", re.MULTILINE)
 
 
 def free_port() -> int:
@@ -47,6 +50,10 @@ class RunPlan:
     connect: str | None = None  # a router's endpoint; None starts one
     start_timeout: float = 60.0
     progress: bool = False
+    drop_rate: float = 0.0  # fault injection: passed to every agent (realtime only)
+    drop_seed: int = 0
+    secure: bool = False  # TLS, passwords and the router's ACL (docs/security.md)
+    secure_dir: Path | None = None  # their material; None makes a fresh one in the run folder
 
 
 @dataclass(frozen=True)
@@ -55,19 +62,26 @@ class RunResult:
     startup_s: float  # from launch until every agent's token was up
     wall_s: float
     agent_peak_rss_mb: list[float]  # one per agent process that reported it
+    lost: tuple[str, ...] = ()  # agents that died during the run, e.g. "agent 3 (exit code -9)"
+    agent_stats: tuple[str, ...] = ()  # each agent's stats line (agent/process.py, stats())
 
 
 def launch(plan: RunPlan) -> RunResult:
     """Run ``plan`` to its end; raises tools.swarm.ChildFailed if a process fails."""
     started = time.monotonic()
     with Swarm() as swarm:
-        endpoint = plan.connect or f"tcp/127.0.0.1:{free_port()}"
+        if plan.secure and plan.secure_dir is None:  # removed with the run folder at the end
+            made = make_material(swarm.log_dir / "secure", run=plan.run_id, agents=plan.agents)
+            plan = replace(plan, secure_dir=made.root)
+        secure = ["--secure", str(plan.secure_dir)] if plan.secure_dir else []
+        scheme = "tls" if plan.secure_dir else "tcp"
+        endpoint = plan.connect or f"{scheme}/127.0.0.1:{free_port()}"
         if plan.connect is None:
             router = swarm.spawn(
-                "router", "router", ["router", "--listen", endpoint], ready_pipe=True
+                "router", "router", ["router", "--listen", endpoint, *secure], ready_pipe=True
             )
             swarm.wait_ready(router, plan.start_timeout)
-        common = ["--run", plan.run_id, "--connect", endpoint]
+        common = ["--run", plan.run_id, "--connect", endpoint, *secure]
         logger = swarm.spawn(
             "logger", "logger", ["logger", "--out", str(plan.out), *common], ready_pipe=True
         )
@@ -78,10 +92,13 @@ def launch(plan: RunPlan) -> RunResult:
              "--clock", plan.clock, "--speed", str(plan.speed),
              "--start-timeout", str(plan.start_timeout)],
         )  # fmt: skip
+        drops = ["--drop-rate", str(plan.drop_rate), "--drop-seed", str(plan.drop_seed)]
         for i in range(1, plan.agents + 1):
-            swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
+            args = ["agent", "--id", str(i), *common, *(drops if plan.drop_rate else [])]
+            swarm.spawn(f"agent {i}", "agent", args)
         swarm.wait_ready(logger, plan.start_timeout)
-        summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started)
+        lost: list[str] = []
+        summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost)
         swarm.expect_exit({"world", "agent"}, timeout=10.0)
         swarm.expect_exit({"logger"}, timeout=10.0)
         rss = [
@@ -89,18 +106,28 @@ def launch(plan: RunPlan) -> RunResult:
             for c in swarm.children
             if c.role == "agent" and (m := _PEAK_RSS.search(c.tail(3)))
         ]
-    return RunResult(summary, startup, time.monotonic() - started, rss)
+        stats = tuple(
+            m.group(0)
+            for c in swarm.children
+            if c.role == "agent" and (m := _STATS.search(c.tail(4)))
+        )
+    return RunResult(summary, startup, time.monotonic() - started, rss, tuple(lost), stats)
 
 
 def _monitor(
-    swarm: Swarm, keys: Keys, endpoint: str, plan: RunPlan, began: float
+    swarm: Swarm, keys: Keys, endpoint: str, plan: RunPlan, began: float, lost: list[str]
 ) -> tuple[dict[str, Any], float]:
     """Follow the run from a client session until the world's summary arrives; also returns
-    the seconds from ``began`` until every agent's token was up."""
+    the seconds from ``began`` until every agent's token was up.
+
+    An agent that dies does not end the run: the world owns membership (it holds the agent
+    still, logs it, and ends the run itself if it was the leader); the agent is noted in
+    ``lost`` and on stderr. Any other child that exits early fails the run, unless the world's
+    summary is already on its way (the world exits right after publishing it)."""
     inbox = Inbox()
     agents_up: set[str] = set()
     startup = float("nan")
-    conf = client_config((endpoint,), None, False)
+    conf = client_config((endpoint,), None, False, plan.secure_dir, MONITOR)
     with open_session(conf, "shoal run") as session:
         held = [
             subscribe(session, keys.tick, inbox),
@@ -115,7 +142,15 @@ def _monitor(
             checked = 0.0
             while True:
                 if time.monotonic() - checked >= 0.2:  # not once per tick: 0.2 s is soon enough
-                    swarm.check()
+                    _note_lost_agents(swarm, lost)
+                    try:
+                        swarm.check()
+                    except ChildFailed:
+                        late = _late_summary(inbox, keys, within=2.0)
+                        if late is None:
+                            raise
+                        summary = late
+                        break
                     checked = time.monotonic()
                 arrival = inbox.get(timeout=0.2)
                 if arrival is None:
@@ -138,3 +173,25 @@ def _monitor(
                     continue  # a stranger's garbage on our keys does not stop the run
         del held, token
     return summary, startup
+
+
+def _note_lost_agents(swarm: Swarm, lost: list[str]) -> None:
+    """Mark agents that exited with an error as expected gone, and say so once each."""
+    for c in swarm.children:
+        code = c.popen.poll()
+        if c.role == "agent" and not c.done and code is not None and code != 0:
+            c.done = True
+            lost.append(f"{c.name} (exit code {code})")
+            warn(f"shoal run: {c.name} exited with code {code}; the world goes on without it")
+
+
+def _late_summary(inbox: Inbox, keys: Keys, within: float) -> dict[str, Any] | None:
+    """The world's summary if it is in ``inbox`` or arrives within ``within`` seconds."""
+    deadline = time.monotonic() + within
+    while (arrival := inbox.get(timeout=max(deadline - time.monotonic(), 0.0))) is not None:
+        if arrival.kind == "data" and arrival.key == keys.summary:
+            try:
+                return codec.decode_document("summary", arrival.payload)
+            except DecodeError:
+                continue
+    return None

@@ -11,13 +11,20 @@ import zenoh
 
 from bus.errors import WireError
 from bus.keys import Keys
+from bus.secure import Identity, Material
 from bus.zconfig import zenoh_config
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
 def bus_options(func: F) -> F:
-    """--run, --connect, --zenoh-config, --multicast."""
+    """--run, --connect, --zenoh-config, --multicast, --secure."""
+    func = click.option(
+        "--secure",
+        type=click.Path(exists=True, file_okay=False, path_type=Path),
+        help="Secured mode: TLS with this run's certificates, a password and the router's "
+        "access rules, from DIR (made by `shoal certs DIR`; docs/security.md).",
+    )(func)
     func = click.option(
         "--multicast", is_flag=True, help="Allow Zenoh multicast scouting (off by default)."
     )(func)
@@ -53,12 +60,22 @@ def check_run_id(_ctx: click.Context, _param: click.Parameter, value: str | None
 
 
 def client_config(
-    connect: tuple[str, ...], zenoh_config_file: Path | None, multicast: bool
+    connect: tuple[str, ...],
+    zenoh_config_file: Path | None,
+    multicast: bool,
+    secure: Path | None = None,
+    name: str = "",
 ) -> zenoh.Config:
-    """A client session's configuration, with errors a person can act on."""
+    """A client session's configuration, with errors a person can act on; with ``secure``, the
+    process logs in as identity ``name`` (world, logger, monitor, agent-<i>)."""
+    identity = Identity(Material(secure), name) if secure is not None else None
     try:
         return zenoh_config(
-            mode="client", connect=connect, config_file=zenoh_config_file, multicast=multicast
+            mode="client",
+            connect=connect,
+            config_file=zenoh_config_file,
+            multicast=multicast,
+            secure=identity,
         )
     except WireError as exc:
         raise click.ClickException(str(exc)) from None

@@ -47,6 +47,8 @@ def render_summary(summary: dict[str, Any]) -> str:
                 f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
             )
         )
+    if summary.get("aborted"):
+        rows.append(("ended early", str(summary["aborted"])))
     if summary.get("assumption2_violations"):
         rows.append(("Assumption 2 broken", f"{summary['assumption2_violations']} ticks"))
     width = max(len(k) for k, _ in rows)

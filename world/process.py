@@ -4,7 +4,11 @@ A thin loop around :func:`world.kinematics.sense_all` and :func:`world.kinematic
 each tick it sends every live agent its sensing, waits until every live agent's command for the
 tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
 configuration (a queryable) and follows agents' presence by liveliness: an agent whose token
-vanishes is held still from then on, its departure logged, and the run goes on without it.
+vanishes is held still, its departure logged, and the run goes on without it. In realtime a
+restarted agent is taken back when its token reappears; in lockstep it is refused (its
+configuration query gets an error), because the tick protocol cannot admit it without every
+neighbour agreeing on the tick it rejoins at. If the leader vanishes, the formation has lost its
+only reference to the path: the world holds every agent still and ends the run (docs/wire.md §4).
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ from world.kinematics import integrate, sense_all
 from world.metrics import summarize
 from world.scenario import Scenario
 from world.trajectory import Trajectory
+
+LEADER = 1  # the agent with the path; the scenario's agent 1 (world/scenario.py)
 
 
 class WorldAbort(RuntimeError):
@@ -54,18 +60,30 @@ class World:
         self.inbox = Inbox()
         self.dropped = 0  # malformed or stale messages counted and dropped
         self.alive = set(range(1, scenario.n + 1))
+        self.departed: dict[int, int] = {}  # agent → the tick its token vanished at
+        self.aborted: str | None = None  # why the run ended early (the leader is gone)
+        self.latest: dict[int, tuple[AgentState, Command]] = {}  # each agent's newest command
         self.up: set[str] = set()
         configs = {
             i: codec.encode_config(scenario.agent_config(i), clock=options.clock)
             for i in self.alive
         }
 
-        def serve(query: zenoh.Query) -> None:
+        def serve(query: zenoh.Query) -> None:  # on a Zenoh thread: reads, never writes, state
             with query:
                 last = str(query.key_expr).rsplit("/", 1)[-1]
                 i = int(last) if last.isascii() and last.isdigit() else None
-                if i in configs:
-                    query.reply(self.keys.config(i), configs[i])
+                if i is None or i not in configs:
+                    return
+                left = self.departed.get(i)
+                if left is not None and options.clock == "lockstep":
+                    query.reply_err(
+                        f"agent {i} left at tick {left}; a lockstep run does not take agents "
+                        "back (its neighbours no longer wait for it)"
+                    )
+                    self.inbox.put(Arrival("refused", self.keys.alive_agent(i)))
+                    return
+                query.reply(self.keys.config(i), configs[i])
 
         k = self.keys
         if any(r.ok is not None for r in session.liveliness().get(k.alive_world, timeout=1.0)):
@@ -113,15 +131,17 @@ class World:
         history: dict[str, list[Any]] = {
             name: [] for name in ("pos", "vel", "omega", "bid", "sigma", "theta")
         }
-        latest: dict[int, tuple[AgentState, Command]] = {}
+        latest = self.latest
         clock = _Clock(realtime=self.options.clock == "realtime", period=s.dt / self.options.speed)
         for k in range(s.steps):
             clock.sent(k)
             sensings = sense_all(k, positions, centres, radii, s.control.sensing_radius)
             for i in sorted(self.alive):
                 self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
-            self._collect(k, latest, clock)
+            self._collect(k, clock)
             reports = {i: latest[i] for i in sorted(self.alive) if i in latest}
+            if self.aborted is not None:
+                reports = {}  # the leader is gone: nobody moves any more, and this tick is the last
             clock.missed += sum(1 for i in self.alive if i not in latest or latest[i][1].tick != k)
             stale = [i for i, r in reports.items() if k - r[1].tick > self.options.stale_after]
             for i in stale:  # a watchdog, as on a real robot: no fresh command, no motion
@@ -132,6 +152,8 @@ class World:
             for name, value in zip(history, _columns(row), strict=True):
                 history[name].append(value)
             positions = integrate(positions, np.asarray(row.velocities), s.dt)
+            if self.aborted is not None:
+                break
         history["pos"].append(positions)
         traj = Trajectory(
             dt=s.dt,
@@ -146,17 +168,23 @@ class World:
             **summarize(s, traj).as_dict(),
             **clock.report(s.steps),
             "dropped_messages": self.dropped,
+            "aborted": self.aborted,
         }
-        self._event(s.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped")
+        if self.aborted is None:
+            self._event(s.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped")
+        else:
+            end = traj.ticks
+            why = f"run ended early at tick {end}: {self.aborted}"
+            self._event(end, 4, 0, f"{why}; {self.dropped} bad messages dropped")
         self.summary_out.put(codec.encode_document("summary", summary))
         return summary
 
-    def _collect(
-        self, k: int, latest: dict[int, tuple[AgentState, Command]], clock: _Clock
-    ) -> None:
-        """Take commands into ``latest`` until tick k may end: in lockstep once every live
-        agent's command for tick k is in; in realtime when the tick's wall-clock period ends."""
-        while True:
+    def _collect(self, k: int, clock: _Clock) -> None:
+        """Take commands into ``self.latest`` until tick k may end: in lockstep once every live
+        agent's command for tick k is in; in realtime when the tick's wall-clock period ends;
+        in either, at once when the leader is gone."""
+        latest = self.latest
+        while self.aborted is None:
             if clock.realtime:
                 left = clock.deadline - time.monotonic()
                 if left <= 0:
@@ -198,15 +226,47 @@ class World:
             return None
         return state, command
 
-    def _note_presence(self, arrival: Arrival, *, tick: int = 0) -> None:
+    def _note_presence(self, arrival: Arrival, *, tick: int | None = None) -> None:
+        """Follow a token going up or down (``tick`` None: before tick 0, when a token that
+        goes down is simply waited for again), or a refused configuration query."""
+        i = agent_of(arrival.key)
+        if i is None or arrival.key != self.keys.alive_agent(i):
+            i = None  # not an agent's token (logger, monitor) or not ours
         if arrival.kind == "up":
             self.up.add(arrival.key)
+            if i is not None and i in self.departed and tick is not None:
+                self._back(i, tick)
         elif arrival.kind == "down":
             self.up.discard(arrival.key)
-            i = agent_of(arrival.key)
-            if i in self.alive and arrival.key == self.keys.alive_agent(i):
-                self.alive.discard(i)
-                self._event(tick, 3, i, f"agent {i} gone at tick {tick}; held still from now on")
+            if i is not None and i in self.alive and tick is not None:
+                self._gone(i, tick)
+        elif arrival.kind == "refused" and i is not None:
+            self._event(
+                tick or 0, 3, i, f"agent {i} asked to rejoin at tick {tick}; refused (lockstep)"
+            )
+
+    def _gone(self, i: int, tick: int) -> None:
+        self.alive.discard(i)
+        self.departed[i] = tick
+        self.latest.pop(i, None)
+        if i == LEADER:
+            self.aborted = f"the leader (agent {i}) is gone at tick {tick}"
+            self._event(tick, 4, i, f"{self.aborted}; every agent held still and the run ends here")
+        elif self.options.clock == "realtime":
+            self._event(tick, 3, i, f"agent {i} gone at tick {tick}; held still until it rejoins")
+        else:
+            self._event(tick, 3, i, f"agent {i} gone at tick {tick}; held still from now on")
+
+    def _back(self, i: int, tick: int) -> None:
+        """A departed agent's token is up again: in realtime take it back (it gets sensing from
+        the next tick on and moves once its first command is in); in lockstep log and ignore it
+        (it normally never gets this far: its configuration query was refused)."""
+        if self.options.clock != "realtime":
+            self._event(tick, 3, i, f"agent {i} back at tick {tick}; not taken back (lockstep)")
+            return
+        del self.departed[i]
+        self.alive.add(i)
+        self._event(tick, 2, i, f"agent {i} back at tick {tick}; taken back")
 
     def _drop(self, why: str) -> None:
         self.dropped += 1

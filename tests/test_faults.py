@@ -1,0 +1,386 @@
+"""Faults survived (issue 6, items 1 and 2), with real processes over a real Zenoh router.
+
+A follower SIGKILLed in realtime (lockstep: tests/test_swarm.py), a follower restarted after it
+died (taken back in realtime, refused in lockstep), the leader killed (every agent held still,
+the run ends with an error naming it), the world killed (agents stop and exit 0), and neighbour
+messages dropped at 0, 5 and 20 % (the formation still converges). The logger killed is
+tests/test_salvage.py; a network partition is tests/test_netns.py.
+
+Readiness and progress come from the run's own events, tick records and liveliness tokens;
+nothing sleeps. Realtime runs share a 2-core machine with other work, so every bound on a
+realtime figure is a multiple of what an unloaded run gives, with the margin said where it is
+asserted; figures are printed (``pytest -s``) for docs/wire.md.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import zenoh
+from conftest import (
+    PYTHON,
+    Watcher,
+    client,
+    json_of,
+    processes_mentioning,
+    start_run,
+    stop,
+    unique,
+)
+
+from bus import codec
+from bus.keys import Keys
+from bus.links import subscribe, watch_presence
+from bus.path import peak_speed
+from bus.runtime import Inbox
+from bus.types import Event
+from tools.bench_drops import measure
+from tools.mcap_read import iter_channel, read_ticks, read_trajectory
+from tools.swarm import Swarm
+from world.loader import load_scenario
+from world.metrics import formation_errors
+from world.theory import convergence_bound, formation_error
+
+pytestmark = pytest.mark.integration
+
+DT = 0.01  # s, every built-in's step
+
+
+def shortened(tmp_path: Path, name: str, duration: float) -> Path:
+    """A built-in cut to ``duration`` seconds, as a file."""
+    lines = [
+        f"duration: {duration}" if line.startswith("duration:") else line
+        for line in load_scenario(name).source.splitlines()
+    ]
+    path = tmp_path / f"{name}-{duration:g}s.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+class Bus:
+    """A run's events, ticks and summary, followed from the test's own session."""
+
+    def __init__(self, session: zenoh.Session, run: str) -> None:
+        self.keys = Keys(run)
+        self.inbox = Inbox()
+        self._held = [
+            subscribe(session, self.keys.event, self.inbox),
+            subscribe(session, self.keys.tick, self.inbox),
+            subscribe(session, self.keys.summary, self.inbox),
+        ]
+        self.events: list[Event] = []
+        self.last_tick = -1
+        self.summary: dict[str, Any] | None = None
+
+    def until(self, done: Callable[[], bool], what: str, timeout: float = 120.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not done():
+            arrival = self.inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
+            if arrival is None:
+                raise AssertionError(f"{what}: not seen within {timeout} s")
+            if arrival.key == self.keys.event:
+                self.events.append(codec.decode_event(arrival.payload))
+            elif arrival.key == self.keys.tick:
+                self.last_tick = codec.decode_tick(arrival.payload).tick
+            elif arrival.key == self.keys.summary:
+                self.summary = codec.decode_document("summary", arrival.payload)
+
+    def event(self, agent: int, word: str) -> Event | None:
+        found = [e for e in self.events if e.agent == agent and word in e.text]
+        return found[0] if found else None
+
+    def until_event(self, agent: int, word: str, timeout: float = 120.0) -> Event:
+        self.until(lambda: self.event(agent, word) is not None, f"{word!r} of agent {agent}",
+                   timeout)  # fmt: skip
+        found = self.event(agent, word)
+        assert found is not None
+        return found
+
+    def until_tick(self, tick: int) -> None:
+        self.until(lambda: self.last_tick >= tick or self.summary is not None, f"tick {tick}")
+
+    def until_summary(self, timeout: float = 120.0) -> dict[str, Any]:
+        self.until(lambda: self.summary is not None, "the summary", timeout)
+        assert self.summary is not None
+        return self.summary
+
+
+def logged_events(out: Path) -> list[Event]:
+    return [codec.decode_event(d) for _t, d, _ns in iter_channel(out, "/world/event")]
+
+
+def follower_errors(scenario: Path, out: Path) -> Any:
+    """(T, n-1) formation error of every follower at every tick, from the log."""
+    scn = load_scenario(scenario)
+    return formation_errors(scn, read_trajectory(out, dt=scn.dt))
+
+
+# -- a follower killed (realtime; the lockstep case is tests/test_swarm.py) --------------------
+
+
+def test_realtime_sigkill_of_a_follower_is_survived_and_logged(router: str, tmp_path: Path) -> None:
+    scenario, out = shortened(tmp_path, "sinusoid", 6.0), tmp_path / "run.mcap"
+    with Swarm() as swarm, client(router) as session:
+        r = start_run(swarm, session, router, str(scenario), unique("rtkill"), out,
+                      clock="realtime")  # fmt: skip
+        bus = Bus(session, r.watcher.keys.run)
+        bus.until_tick(200)
+        os.kill(r.agents[2].popen.pid, signal.SIGKILL)  # follower 3
+        r.agents[2].done = True
+        killed_after = bus.last_tick
+        summary = bus.until_summary()
+        assert r.world.popen.wait(timeout=30) == 0
+        assert r.logger.popen.wait(timeout=30) == 0
+        others = [a for a in r.agents if a is not r.agents[2]]
+        codes = [a.popen.wait(timeout=30) for a in others]
+        for a in r.agents:
+            a.done = True
+    assert codes == [0, 0, 0, 0]
+    assert summary["steps"] == 600 and summary["aborted"] is None
+    gone = [e for e in logged_events(out) if e.agent == 3 and "gone" in e.text]
+    assert len(gone) == 1 and gone[0].level == 3 and gone[0].tick >= killed_after
+    positions = read_trajectory(out, dt=DT).positions[gone[0].tick + 1 :, 2]
+    assert (positions == positions[0]).all()  # held still from the tick it was noticed
+    # The rest go on: followers 2, 4 and 5 (5 now follows 4 alone) keep their slots. Over the
+    # last 2 s their median error is ≤ 3 × tolerance (unloaded realtime runs give ≈ 1 ×).
+    errors = follower_errors(scenario, out)[-200:][:, [0, 2, 3]].max(axis=1)
+    assert float(np.median(errors)) <= 3 * summary["tolerance"]
+    print(f"\nrealtime kill of agent 3 after tick {killed_after}: gone at tick {gone[0].tick}")
+
+
+# -- a follower restarted ----------------------------------------------------------------------
+
+
+def test_restarted_follower_is_taken_back_and_returns_to_its_slot_in_realtime(
+    router: str, tmp_path: Path
+) -> None:
+    """Agent 4 is killed at tick 300 of a 20 s realtime run and started again as soon as the
+    world has logged it gone. The new process fetches its configuration, the world takes it
+    back when its token appears, and it returns to its slot within the Theorem-1 bound computed
+    from the formation error at the tick its first command is applied."""
+    scenario, out = shortened(tmp_path, "sinusoid", 20.0), tmp_path / "run.mcap"
+    run = unique("rejoin")
+    with Swarm() as swarm, client(router) as session:
+        r = start_run(swarm, session, router, str(scenario), run, out, clock="realtime")
+        bus = Bus(session, run)
+        bus.until_tick(300)
+        os.kill(r.agents[3].popen.pid, signal.SIGKILL)
+        r.agents[3].done = True
+        bus.until_event(4, "gone")
+        restarted = time.monotonic()
+        again = swarm.spawn("agent 4 again", "agent",
+                            ["agent", "--id", "4", "--run", run, "--connect", router])  # fmt: skip
+        bus.until_event(4, "back at tick", timeout=60)
+        back_wall = time.monotonic() - restarted
+        summary = bus.until_summary()
+        assert r.world.popen.wait(timeout=30) == 0
+        assert r.logger.popen.wait(timeout=30) == 0
+        codes = [a.popen.wait(timeout=30) for a in [*r.agents[:3], r.agents[4], again]]
+        for c in swarm.children:
+            c.done = True
+    assert codes == [0, 0, 0, 0, 0]
+    assert summary["steps"] == 2000 and summary["collisions"] == 0
+
+    events = logged_events(out)
+    gone = next(e for e in events if e.agent == 4 and "gone" in e.text)
+    back = next(e for e in events if e.agent == 4 and "back at tick" in e.text)
+    assert gone.level == 3 and back.level == 2 and gone.tick < back.tick
+    scn = load_scenario(scenario)
+    traj = read_trajectory(out, dt=scn.dt)
+    held = traj.positions[gone.tick + 1 : back.tick + 1, 3]
+    assert (held == held[0]).all()  # held still while it was away
+    moving = np.flatnonzero(np.any(traj.velocities[back.tick :, 3] != 0.0, axis=1))
+    assert moving.size > 0, "the world never applied a command of the restarted agent"
+    first = back.tick + int(moving[0])  # the tick its first command was applied
+    z = formation_error(traj.positions[first], scn.offsets)
+    bound = convergence_bound(scn.adjacency, z, directed=scn.directed, beta=scn.control.beta,
+                              f_max=peak_speed(scn.path))  # fmt: skip
+    mine = formation_errors(scn, traj)[:, 2]  # agent 4 is the third follower
+    below = np.flatnonzero(mine[first:] <= scn.tolerance)
+    assert below.size > 0, "agent 4 never got back within tolerance of its slot"
+    took = float(below[0]) * scn.dt
+    assert took <= bound
+    # And it stays there: median error over the last 2 s ≤ 3 × tolerance (≈ 1 × unloaded).
+    assert float(np.median(mine[-200:])) <= 3 * scn.tolerance
+    print(
+        f"\nrejoin: gone at tick {gone.tick}, back at tick {back.tick} ({back_wall:.2f} s after "
+        f"the restart), first command applied at tick {first}, error {mine[first]:.2f} m → "
+        f"≤ {scn.tolerance} m in {took:.2f} s (Theorem-1 bound from there {bound:.2f} s)"
+    )
+
+
+def test_restarted_follower_is_refused_in_lockstep(router: str, tmp_path: Path) -> None:
+    """Lockstep cannot take an agent back (its neighbours stopped waiting for it): the world
+    answers the configuration query with an error and logs the refusal; the restarted process
+    exits 1 with the reason; the run goes on without it."""
+    scenario, out = shortened(tmp_path, "sinusoid", 20.0), tmp_path / "run.mcap"
+    run = unique("refuse")
+    with Swarm() as swarm, client(router) as session:
+        r = start_run(swarm, session, router, str(scenario), run, out)
+        bus = Bus(session, run)
+        bus.until_tick(50)
+        os.kill(r.agents[3].popen.pid, signal.SIGKILL)
+        r.agents[3].done = True
+        bus.until_event(4, "gone")
+        replies = list(session.get(bus.keys.config(4), timeout=10.0))
+        assert len(replies) == 1 and replies[0].err is not None
+        assert "lockstep" in replies[0].err.payload.to_bytes().decode()
+        again = swarm.spawn("agent 4 again", "agent",
+                            ["agent", "--id", "4", "--run", run, "--connect", router])  # fmt: skip
+        again.done = True
+        code = again.popen.wait(timeout=60)
+        told = again.tail()
+        bus.until_summary()
+        assert r.world.popen.wait(timeout=30) == 0
+        assert [a.popen.wait(timeout=30) for a in r.agents if a is not r.agents[3]] == [0] * 4
+        for c in swarm.children:
+            c.done = True
+    assert code == 1 and "refuses it" in told and "lockstep" in told
+    events = logged_events(out)
+    gone = next(e for e in events if e.agent == 4 and "gone" in e.text)
+    refused = [e for e in events if e.agent == 4 and "refused" in e.text]
+    assert len(refused) >= 2  # the test's own query and the restarted process's
+    held = read_trajectory(out, dt=DT).positions[gone.tick + 1 :, 3]
+    assert (held == held[0]).all()
+
+
+# -- the leader killed -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
+def test_leader_killed_stops_everyone_and_ends_the_run(
+    clock: str, router: str, tmp_path: Path
+) -> None:
+    scenario, out = shortened(tmp_path, "sinusoid", 10.0), tmp_path / "run.mcap"
+    run = unique("leader")
+    with Swarm() as swarm, client(router) as session:
+        r = start_run(swarm, session, router, str(scenario), run, out, clock=clock)
+        bus = Bus(session, run)
+        bus.until_tick(150)
+        os.kill(r.agents[0].popen.pid, signal.SIGKILL)
+        r.agents[0].done = True
+        killed_after = bus.last_tick
+        summary = bus.until_summary()
+        world_code = r.world.popen.wait(timeout=30)
+        logger_code = r.logger.popen.wait(timeout=30)
+        codes = [a.popen.wait(timeout=30) for a in r.agents[1:]]
+        told = r.world.tail()
+        for c in swarm.children:
+            c.done = True
+    assert world_code == 1 and "the leader (agent 1) is gone" in told
+    assert logger_code == 0 and codes == [0, 0, 0, 0]
+    assert "leader (agent 1)" in summary["aborted"]
+    errors = [e for e in logged_events(out) if e.level == 4]
+    assert errors[0].agent == 1 and errors[0].tick >= killed_after
+    ticks = read_ticks(out)
+    assert ticks[-1].tick == errors[0].tick == summary["steps"] - 1  # the run ends right there
+    assert all(v == 0.0 for vel in ticks[-1].velocities for v in vel)  # everyone held still
+    print(f"\n{clock}: leader killed after tick {killed_after}, run ended at tick {ticks[-1].tick}")
+
+
+def test_shoal_run_exits_1_naming_the_leader_when_it_dies(router: str, tmp_path: Path) -> None:
+    run, out = unique("leaderrun"), tmp_path / "run.mcap"
+    scenario = shortened(tmp_path, "sinusoid", 20.0)
+    proc = subprocess.Popen(
+        [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--json",
+         "--no-foxglove", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    try:
+        with client(router) as session:
+            Watcher(session, run).until_tick(100)
+        (leader,) = processes_mentioning(f"agent --id 1 --run {run}")
+        os.kill(leader, signal.SIGKILL)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        stop(proc)
+    assert proc.returncode == 1
+    assert "the run ended early: the leader (agent 1) is gone at tick" in stderr
+    got = json_of(subprocess.CompletedProcess([], 1, stdout, stderr))
+    assert got["steps"] < 2000 and "leader" in got["aborted"]
+    deadline = time.monotonic() + 15
+    while processes_mentioning(f"--run {run}") and time.monotonic() < deadline:
+        os.sched_yield()  # waiting on a condition with a deadline, not on the clock
+    assert processes_mentioning(f"--run {run}") == []
+
+
+# -- the world killed --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
+def test_world_killed_agents_stop_commanding_and_exit_0(
+    clock: str, router: str, tmp_path: Path
+) -> None:
+    """After a SIGKILL of the world every agent exits 0 within 10 s (measured: well under 1 s
+    unloaded; the kernel closes the world's socket, so no lease is involved), and no agent
+    commands a tick the world never sensed: it only ever answers sensings."""
+    scenario, out = shortened(tmp_path, "sinusoid", 20.0), tmp_path / "run.mcap"
+    run = unique("worldkill")
+    keys = Keys(run)
+    inbox = Inbox()
+    with Swarm() as swarm, client(router) as session:
+        held = [
+            subscribe(session, f"{keys.root}/agent/*/cmd", inbox),
+            subscribe(session, f"{keys.root}/agent/*/sensing", inbox),
+            watch_presence(session, keys.alive_world, inbox),
+        ]
+        r = start_run(swarm, session, router, str(scenario), run, out, clock=clock)
+        bus = Bus(session, run)
+        bus.until_tick(150)
+        os.kill(r.world.popen.pid, signal.SIGKILL)
+        killed = time.monotonic()
+        r.world.done = True
+        waited = []
+        for a in r.agents:
+            a.done = True
+            code = a.popen.wait(timeout=30)
+            waited.append((code, time.monotonic() - killed))
+        r.logger.done = True
+        logger_code = r.logger.popen.wait(timeout=30)
+        sensed, commanded = -1, -1
+        while (arrival := inbox.get(timeout=1.0)) is not None:  # until the bus is quiet
+            if arrival.key.endswith("/sensing"):
+                sensed = max(sensed, codec.decode_sensing(arrival.payload).tick)
+            elif arrival.key.endswith("/cmd"):
+                commanded = max(commanded, codec.decode_report(arrival.payload)[1].tick)
+        del held
+    assert [code for code, _ in waited] == [0] * 5
+    assert max(s for _, s in waited) <= 10.0
+    assert logger_code == 0 and len(read_ticks(out)) >= 150
+    assert 150 <= commanded <= sensed
+    slowest = max(s for _, s in waited)
+    print(f"\n{clock}: agents exited 0 within {slowest:.2f} s of the world's SIGKILL; "
+          f"last tick sensed {sensed}, commanded {commanded}")  # fmt: skip
+
+
+# -- lost messages -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("rate", [0.0, 0.05, 0.2])
+def test_formation_converges_with_lost_neighbour_messages(rate: float, tmp_path: Path) -> None:
+    """Realtime sinusoid (10 s, speed 1) with a fraction of every agent's incoming neighbour
+    states thrown away. Bound: the median steady-state error (t ≥ 5 s) ≤ 3 × tolerance = 0.6 m;
+    measured 0.18–0.20 m at every rate on this machine under load (a formation that had not
+    converged would be metres off: the followers start up to 2 m from their slots and the
+    leader moves at up to 1.3 m/s)."""
+    scenario = shortened(tmp_path, "sinusoid", 10.0)
+    row = measure(str(scenario), rate, speed=1.0, settle=5.0, seed=0, workdir=tmp_path)
+    tolerance = load_scenario(scenario).tolerance
+    print(f"\ndrop rate {rate}: {row.as_dict()}")
+    assert row.collisions == 0
+    assert row.median <= 3 * tolerance
+    expected = 12 * 1000  # 6 undirected edges, a state each way per tick, 1000 ticks
+    assert row.offered >= 0.9 * expected
+    sd = (rate * (1 - rate) / row.offered) ** 0.5
+    assert abs(row.injected / row.offered - rate) <= 5 * sd  # seeded, counted, at the rate asked
+    assert row.age_max is not None
