@@ -9,6 +9,7 @@ receiver counts and drops such messages and never crashes on them.
 from __future__ import annotations
 
 import contextlib
+import reprlib
 from collections.abc import Callable, Mapping
 from operator import itemgetter
 from typing import Any, TypeVar
@@ -34,6 +35,11 @@ from bus.types import (
 SCHEMA = 1
 T = TypeVar("T")
 
+# Error messages show a wire value through this: bounded in length and depth, so that a value
+# nested 1,000 deep (msgpack allows 1,024) cannot raise RecursionError instead of DecodeError.
+_shown = reprlib.Repr()
+_shown.maxlevel, _shown.maxstring, _shown.maxother = 2, 40, 40
+
 
 def _pack(kind: str, body: dict[str, Any]) -> bytes:
     return bytes(msgpack.packb({"v": SCHEMA, "k": kind, **body}, use_bin_type=True))
@@ -46,10 +52,13 @@ def _unpack(kind: str, data: bytes) -> Mapping[str, Any]:
         raise DecodeError(f"{kind}: not msgpack ({type(exc).__name__})") from None
     if not isinstance(msg, dict):
         raise DecodeError(f"{kind}: expected a map, got {type(msg).__name__}")
-    if msg.get("v") != SCHEMA:
-        raise DecodeError(f"{kind}: schema version {msg.get('v')!r}, this build speaks {SCHEMA}")
+    version = msg.get("v")
+    if type(version) is not int or version != SCHEMA:  # not 1.0 or true, though they equal 1
+        raise DecodeError(
+            f"{kind}: schema version {_shown.repr(version)}, this build speaks {SCHEMA}"
+        )
     if msg.get("k") != kind:
-        raise DecodeError(f"expected a {kind} message, got kind {msg.get('k')!r}")
+        raise DecodeError(f"expected a {kind} message, got kind {_shown.repr(msg.get('k'))}")
     return msg
 
 
@@ -106,6 +115,13 @@ def _vector(value: Any, where: str) -> Vector:
 
 def _vectors(value: Any, where: str) -> tuple[Vector, ...]:
     return tuple(_vector(v, where) for v in _list(value, where))
+
+
+def _same_dim(dim: int, vectors: tuple[Vector, ...], where: str) -> None:
+    """Every vector of one message has the same number of coordinates."""
+    for v in vectors:
+        if len(v) != dim:
+            raise DecodeError(f"{where}: {len(v)} coordinates where the message has {dim}")
 
 
 def _floats(value: Any, where: str) -> tuple[float, ...]:
@@ -172,6 +188,7 @@ def decode_sensing(data: bytes) -> Sensing:
     )
     if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
         raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
+    _same_dim(len(s.position), s.obstacle_centres, "sensing.oc")
     return s
 
 
@@ -196,7 +213,7 @@ def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
         if type(i) is not int:
             return None
     for c in oc:
-        if not _plain_vector(c):
+        if not _plain_vector(c) or len(c) != len(pos):
             return None
     return Sensing(t, tuple(pos), tuple(oid), tuple(map(tuple, oc)), tuple(radii))
 
@@ -259,6 +276,7 @@ def decode_report(data: bytes) -> tuple[AgentState, Command]:
     state = _state_from(m)
     vel: Any = m.get("vel")
     velocity = tuple(vel) if _plain_vector(vel) else _get(m, "vel", _vector)
+    _same_dim(len(state.position), (velocity,), "cmd.vel")
     command = Command(state.agent_id, state.tick, velocity)
     return state, command
 
@@ -288,10 +306,10 @@ def _path_from(value: Any, where: str) -> PathSpec | None:
     m = _map(value, where)
     kind = m.get("type")
     if kind == "waypoints":
-        return Waypoints(
-            points=_vectors(m.get("points"), f"{where}.points"),
-            speed=_float(m.get("speed"), f"{where}.speed"),
-        )
+        points = _vectors(m.get("points"), f"{where}.points")
+        if not points:
+            raise DecodeError(f"{where}.points: no waypoint")
+        return Waypoints(points=points, speed=_float(m.get("speed"), f"{where}.speed"))
     if kind == "sinusoid":
         return Sinusoid(
             start=_vector(m.get("start"), f"{where}.start"),
@@ -301,7 +319,15 @@ def _path_from(value: Any, where: str) -> PathSpec | None:
             amplitude=_float(m.get("amplitude"), f"{where}.amplitude"),
             period=_float(m.get("period"), f"{where}.period"),
         )
-    raise DecodeError(f"{where}.type: unknown path type {kind!r}")
+    raise DecodeError(f"{where}.type: unknown path type {_shown.repr(kind)}")
+
+
+def _path_vectors(p: PathSpec | None) -> tuple[Vector, ...]:
+    if p is None:
+        return ()
+    if isinstance(p, Waypoints):
+        return p.points
+    return (p.start, p.direction, p.normal)
 
 
 _PARAMS = (
@@ -375,6 +401,13 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, str]:
         path=_path_from(m.get("path"), "config.path"),
         reshapes=tuple(reshapes),
     )
+    if config.dim not in (2, 3):
+        raise DecodeError(f"config.dim: {config.dim} is not 2 or 3")
+    _same_dim(config.dim, (config.offset,), "config.offset")
+    _same_dim(config.dim, config.neighbour_offsets, "config.neighbour_offsets")
+    _same_dim(config.dim, _path_vectors(config.path), "config.path")
+    if len(config.neighbour_offsets) != len(config.senses):
+        raise DecodeError("config.neighbour_offsets: not one per agent in senses")
     return config, clock
 
 
@@ -412,6 +445,8 @@ def decode_tick(data: bytes) -> TickRecord:
     n = len(t.positions)
     if any(len(x) != n for x in (t.velocities, t.omega, t.bid, t.sigma, t.theta, t.alive)):
         raise DecodeError("tick: per-agent fields differ in length")
+    if n:
+        _same_dim(len(t.positions[0]), (*t.positions, *t.velocities), "tick.pos")
     return t
 
 
@@ -434,5 +469,17 @@ def encode_document(kind: str, body: Mapping[str, Any]) -> bytes:
     return _pack(kind, {"body": dict(body)})
 
 
+_SCALARS = (type(None), bool, int, float, str)
+
+
 def decode_document(kind: str, data: bytes) -> dict[str, Any]:
-    return dict(_get(_unpack(kind, data), "body", _map))
+    """The body: names to strings, numbers (any float: inf marks an unbounded figure), booleans
+    or None. A nested value or a name that is not a string is refused: readers print and store
+    these values as they are."""
+    body = dict(_get(_unpack(kind, data), "body", _map))
+    for name, value in body.items():
+        if type(name) is not str:
+            raise DecodeError(f"{kind}.body: a name that is not a string")
+        if type(value) not in _SCALARS:
+            raise DecodeError(f"{kind}.body.{name[:40]}: a {type(value).__name__}, not a scalar")
+    return body

@@ -9,6 +9,8 @@ documented in docs/scenarios.md.
 from __future__ import annotations
 
 import math
+import re
+import reprlib
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -29,6 +31,11 @@ _TOP = {
 # No length, time or gain in a scenario is larger: squares and sums stay far from overflow.
 _LARGEST = 1e9
 _MOST_STEPS = 10_000_000
+# "[" and "{" nested deeper than this are refused before PyYAML sees them: its scanner takes
+# quadratic time in the nesting (2,000 levels: seconds), and its composer would overflow the
+# stack a few hundred levels down anyway. A scenario nests three deep.
+_DEEPEST_FLOW = 100
+_FLOW = re.compile(r"[\[\]{}]")
 _CONTROL_DEFAULTS: dict[str, float] = {
     "alpha": 1.0,
     "beta": 2.0,
@@ -64,13 +71,34 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 def parse_scenario(text: str, *, default_name: str = "scenario") -> Scenario:
     """Parse and validate YAML text."""
+    if _flow_depth(text) > _DEEPEST_FLOW:
+        raise ScenarioError("yaml", f"not valid YAML: [ or {{ nested over {_DEEPEST_FLOW} deep")
     try:
         data = yaml.safe_load(text)
-    except (yaml.YAMLError, ValueError) as exc:  # ValueError: e.g. an integer too long to parse
+    except yaml.YAMLError as exc:
         raise ScenarioError("yaml", f"not valid YAML: {exc}") from None
+    except (ValueError, AttributeError, IndexError, KeyError, TypeError, OverflowError) as exc:
+        # PyYAML's own constructors on a bad scalar: an integer too long to convert, and with
+        # an explicit tag, "!!int" (IndexError, ValueError), "!!bool" (KeyError), "!!timestamp"
+        # (AttributeError, ValueError) on text that is not one.
+        raise ScenarioError("yaml", f"not valid YAML: {type(exc).__name__}: {exc}") from None
+    except RecursionError:  # PyYAML recurses per level: "[[[[…" a few hundred deep
+        raise ScenarioError("yaml", "not valid YAML: nested too deeply") from None
     if not isinstance(data, Mapping):
         raise ScenarioError("scenario", "the file must hold a mapping of fields")
     return scenario_from_dict(data, source=text, default_name=default_name)
+
+
+def _flow_depth(text: str) -> int:
+    """How deep "[" and "{" nest, quotes and comments not told apart (an upper bound)."""
+    depth = deepest = 0
+    for bracket in _FLOW.finditer(text):
+        if bracket.group() in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        else:
+            depth = max(depth - 1, 0)
+    return deepest
 
 
 def scenario_from_dict(
@@ -120,6 +148,23 @@ def scenario_from_dict(
 # -- fields -------------------------------------------------------------------------------------
 
 
+class _Shown(reprlib.Repr):
+    """A value as an error message shows it: short, and safe for any value YAML can make (a
+    list nested 900 deep, an integer of 4,000 digits) where repr() raises or runs on."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.maxlevel, self.maxstring, self.maxother = 3, 60, 60
+
+    def repr_int(self, x: int, level: int) -> str:
+        if abs(x) >= 10**30:
+            return f"an integer of {x.bit_length()} bits"
+        return super().repr_int(x, level)
+
+
+_shown = _Shown().repr
+
+
 def _no_unknown(data: Mapping[str, Any], known: set[str], where: str) -> None:
     for key in data:
         if key not in known:
@@ -131,13 +176,13 @@ def _no_unknown(data: Mapping[str, Any], known: set[str], where: str) -> None:
 
 def _number(value: Any, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ScenarioError(field, f"must be a number, got {value!r}")
+        raise ScenarioError(field, f"must be a number, got {_shown(value)}")
     if isinstance(value, int) and abs(value) > _LARGEST:
         raise ScenarioError(field, f"must be within ±{_LARGEST:g}, got a larger integer")
     if not math.isfinite(value):
-        raise ScenarioError(field, f"must be finite, got {value!r}")
+        raise ScenarioError(field, f"must be finite, got {_shown(value)}")
     if abs(value) > _LARGEST:
-        raise ScenarioError(field, f"must be within ±{_LARGEST:g}, got {value!r}")
+        raise ScenarioError(field, f"must be within ±{_LARGEST:g}, got {_shown(value)}")
     return float(value)
 
 
@@ -152,36 +197,38 @@ def _non_negative(value: Any, field: str) -> float:
     x = _number(value, field)
     if x < 0:
         raise ScenarioError(field, f"must be ≥ 0, got {x}")
-    return x
+    return x + 0.0  # -0.0 becomes 0.0: numpy's uniform(-s, s) refuses s = -0.0
 
 
 def _integer(value: Any, field: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
-        raise ScenarioError(field, f"must be an integer, got {value!r}")
+        raise ScenarioError(field, f"must be an integer, got {_shown(value)}")
+    if abs(value) >= 2**63:  # YAML's 1:0:0:… (base 60) makes any size; str() refuses 4,300 digits
+        raise ScenarioError(field, f"must be within ±2^63, got {_shown(value)}")
     return value
 
 
 def _string(value: Any, field: str) -> str:
     if not isinstance(value, str):
-        raise ScenarioError(field, f"must be a string, got {value!r}")
+        raise ScenarioError(field, f"must be a string, got {_shown(value)}")
     return value
 
 
 def _vector(value: Any, field: str, dim: int) -> Vector:
     if not isinstance(value, list | tuple) or len(value) != dim:
-        raise ScenarioError(field, f"must be a list of {dim} numbers, got {value!r}")
+        raise ScenarioError(field, f"must be a list of {dim} numbers, got {_shown(value)}")
     return tuple(_number(v, f"{field}[{k}]") for k, v in enumerate(value))
 
 
 def _mapping(value: Any, field: str) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
-        raise ScenarioError(field, f"must be a mapping, got {value!r}")
+        raise ScenarioError(field, f"must be a mapping, got {_shown(value)}")
     return value
 
 
 def _list(value: Any, field: str) -> list[Any]:
     if not isinstance(value, list):
-        raise ScenarioError(field, f"must be a list, got {value!r}")
+        raise ScenarioError(field, f"must be a list, got {_shown(value)}")
     return value
 
 
@@ -286,12 +333,12 @@ def _graph(value: Any, n: int) -> tuple[bool, tuple[tuple[int, int], ...]]:
     _no_unknown(data, {"directed", "edges"}, "graph")
     directed = data.get("directed", False)
     if not isinstance(directed, bool):
-        raise ScenarioError("graph.directed", f"must be true or false, got {directed!r}")
+        raise ScenarioError("graph.directed", f"must be true or false, got {_shown(directed)}")
     edges = []
     for k, e in enumerate(_list(data.get("edges"), "graph.edges")):
         where = f"graph.edges[{k}]"
         if not isinstance(e, list | tuple) or len(e) != 2:
-            raise ScenarioError(where, f"must be a pair of agent ids, got {e!r}")
+            raise ScenarioError(where, f"must be a pair of agent ids, got {_shown(e)}")
         i, j = (_integer(x, where) for x in e)
         for x in (i, j):
             if not 1 <= x <= n:
