@@ -25,6 +25,7 @@ import zenoh
 
 from agent.controller import Controller
 from agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
+from agent.errors import ConfigError
 from bus import codec
 from bus.errors import DecodeError
 from bus.keys import Keys, agent_of
@@ -78,7 +79,10 @@ class AgentNode:
         self._world_watch = watch_presence(session, k.alive_world, self.inbox)
         self._await_world()
         config, self.clock = fetch_config(session, k, options.agent_id, options.start_timeout)
-        self.controller = Controller(config)
+        try:
+            self.controller = Controller(config)
+        except ConfigError as exc:  # decodes, but no controller can run it (dt ≤ 0, gains ≤ 0)
+            raise AgentAbort(f"agent {options.agent_id}: bad configuration: {exc}") from None
         me = options.agent_id
         if options.drop_rate > 0 and self.clock != "realtime":
             raise AgentAbort(

@@ -30,6 +30,8 @@ def test_keys_live_under_the_run_and_tokens_under_at() -> None:
     assert k.alive_agent(3) == "@shoal/r-1/agent/3"
     assert agent_of(k.state(12)) == 12 and agent_of(k.alive_agent(7)) == 7
     assert agent_of(k.tick) is None and agent_of("shoal/r/agent/²/state") is None
+    # only canonical ids: a cmd on agent/01/cmd must not pass for agent 1's
+    assert agent_of("shoal/r/agent/01/cmd") is None and agent_of("shoal/r/agent/0/cmd") is None
 
 
 @pytest.mark.parametrize("bad", ["", "a/b", "a b", "x*", "$", "é", "a" * 65])
