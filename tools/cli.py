@@ -28,6 +28,7 @@ COMMANDS = {
     "export": "tools.cmd_export:export",
     "plot": "tools.cmd_plot:plot",
     "floor": "tools.cmd_floor:floor",
+    "campaign": "tools.cmd_campaign:campaign",
     "compose": "tools.cmd_compose:compose",
 }
 

@@ -1,0 +1,153 @@
+"""``shoal campaign``: the safety campaign over random obstacle fields (docs/campaign.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from tools.campaign import measure, render, report, run_campaign, tasks
+from tools.campaign import save_failures as write_failures
+from tools.cmd_simulate import json_safe, load_for_cli
+from tools.report import render_summary
+from tools.simulator import simulate
+from world.errors import ScenarioError
+from world.fields import FieldOptions, breaches, load_field
+from world.metrics import summarize
+
+
+def _count(text: str) -> tuple[int, int]:
+    low, _, high = text.partition("-")
+    try:
+        bounds = (int(low), int(high or low))
+    except ValueError:
+        raise click.BadParameter(f"expected N or LOW-HIGH, got {text!r}") from None
+    if not 0 <= bounds[0] <= bounds[1]:
+        raise click.BadParameter(f"expected 0 ≤ LOW ≤ HIGH, got {text!r}")
+    return bounds
+
+
+@click.command()
+@click.option("--base", default="obstacles", help="Scenario the fields are drawn around.")
+@click.option("--fields", "count", default=100, help="Fields inside the assumptions.")
+@click.option("--outside/--no-outside", default=True, help="Also run fields outside them.")
+@click.option("--outside-fields", default=20, help="Fields per broken assumption.")
+@click.option("--seed", default=0, help="Seed of the first field; field k has seed SEED+k.")
+@click.option("--jobs", default=os.cpu_count() or 1, help="Worker processes.")
+@click.option("--length", default=FieldOptions.length, help="Metres of the leader's path.")
+@click.option("--obstacles", default="2-5", help="Obstacles per field: N or LOW-HIGH.")
+@click.option("--spacing", default=0.0, help="Least free distance between obstacles, m.")
+@click.option("--sigma-max", type=float, help="Override σ_max (1: no contraction).")
+@click.option(
+    "--save-failures",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Write every field that collided to this directory as scenario YAML.",
+)
+@click.option(
+    "--rerun",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Run one saved field (even one the loader refuses) and print its summary.",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+def campaign(
+    base: str,
+    count: int,
+    outside: bool,
+    outside_fields: int,
+    seed: int,
+    jobs: int,
+    length: float,
+    obstacles: str,
+    spacing: float,
+    sigma_max: float | None,
+    save_failures: Path | None,
+    rerun: Path | None,
+    as_json: bool,
+) -> None:
+    """Run many random obstacle fields through the reference simulator, in parallel.
+
+    Fields inside the paper's assumptions (every load-time check passes) and, with
+    --outside, fields that each break one (docs/campaign.md). Reports collisions, clearance
+    and convergence per set. Exit status 1 if any inside field collides: that falsifies the
+    guarantee. Outside collisions are expected data. 2 if a field could not be drawn.
+    """
+    if rerun is not None:
+        _rerun(rerun, as_json)
+        return
+    options = FieldOptions(
+        length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max
+    )
+    scn = load_for_cli(base)
+    todo = tasks(scn, seed, count, outside_fields if outside else 0, options)
+    start = time.perf_counter()
+    with click.progressbar(
+        length=len(todo),
+        label=f"{len(todo)} fields around {scn.name}",
+        file=sys.stderr,
+        hidden=not sys.stderr.isatty(),
+    ) as bar:
+        outcomes = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
+    rep = report(outcomes, time.perf_counter() - start, max(1, jobs))
+    if save_failures is not None:
+        written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
+        for failure in rep["failures"]:
+            failure["file"] = written.get(failure["name"])
+    click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
+    _exit_status(rep, save_failures)
+
+
+def _exit_status(rep: dict[str, Any], saved: Path | None) -> None:
+    inside = [f for f in rep["failures"] if f["set"] == "inside"]
+    if inside:
+        names = ", ".join(f["name"] for f in inside[:10]) + (" …" if len(inside) > 10 else "")
+        where = f"saved in {saved}" if saved else "rerun with --save-failures DIR to keep them"
+        click.echo(
+            f"{len(inside)} inside field(s) collided, which the guarantee rules out: "
+            f"{names} ({where})",
+            err=True,
+        )
+        sys.exit(1)
+    if rep["errors"]:
+        click.echo(f"{len(rep['errors'])} field(s) could not be drawn", err=True)
+        sys.exit(2)
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and (value != value or value in (float("inf"), float("-inf"))):
+        return None
+    return value
+
+
+def _rerun(path: Path, as_json: bool) -> None:
+    """Run one saved field; also those the loader refuses because they break an assumption."""
+    try:
+        field = load_field(path.read_text(encoding="utf-8"))
+    except ScenarioError as exc:
+        raise click.ClickException(f"{path}: {exc}") from None
+    traj = simulate(field)
+    result = summarize(field, traj)
+    outcome = measure(field, traj, result)
+    summary = json_safe(result.as_dict())
+    summary.update(
+        breaks=sorted(breaches(field)),
+        obstacle_collisions=outcome.obstacle_collisions,
+        agent_collisions=outcome.agent_collisions,
+    )
+    if as_json:
+        click.echo(json.dumps(summary))
+        return
+    click.echo(render_summary(summary))
+    click.echo(
+        f"{'collisions by kind':<24}  {outcome.obstacle_collisions} agent–obstacle, "
+        f"{outcome.agent_collisions} agent–agent"
+    )
+    click.echo(f"{'breaks':<24}  {', '.join(summary['breaks']) or 'nothing checked at load'}")
