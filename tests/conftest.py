@@ -154,3 +154,14 @@ def start_run(
 def unique(name: str) -> str:
     """A run id no other test (or concurrent test session) on this machine uses."""
     return f"{name}-{uuid.uuid4().hex[:8]}"
+
+
+def shortened(tmp_path: Path, name: str = "sinusoid", duration: float = 4.0) -> Path:
+    """A built-in scenario cut to ``duration`` seconds, as a file."""
+    lines = [
+        f"duration: {duration}" if line.startswith("duration:") else line
+        for line in load_scenario(name).source.splitlines()
+    ]
+    path = tmp_path / f"{name}-{duration:g}s.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path

@@ -31,6 +31,7 @@ from conftest import (
     client,
     json_of,
     processes_mentioning,
+    shortened,
     start_run,
     stop,
     unique,
@@ -52,17 +53,6 @@ from world.theory import convergence_bound, formation_error
 pytestmark = pytest.mark.integration
 
 DT = 0.01  # s, every built-in's step
-
-
-def shortened(tmp_path: Path, name: str, duration: float) -> Path:
-    """A built-in cut to ``duration`` seconds, as a file."""
-    lines = [
-        f"duration: {duration}" if line.startswith("duration:") else line
-        for line in load_scenario(name).source.splitlines()
-    ]
-    path = tmp_path / f"{name}-{duration:g}s.yaml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 class Bus:

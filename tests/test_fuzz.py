@@ -49,7 +49,7 @@ from typing import Any, Protocol, TypeVar
 import msgpack
 import pytest
 import yaml
-from conftest import client, start_run, unique
+from conftest import client, shortened, start_run, unique
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -962,16 +962,6 @@ def refused_by_receiver(kind: str, payload: bytes, *, agent: int, dim: int, step
     return False  # a valid tick, event, summary or scenario would be taken as the world's
 
 
-def _short(tmp_path: Path, name: str, duration: float) -> Path:
-    lines = [
-        f"duration: {duration}" if line.startswith("duration:") else line
-        for line in load_scenario(name).source.splitlines()
-    ]
-    path = tmp_path / f"{name}-{duration:g}s.yaml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
 def bus_plan(keys: Keys, scn: Scenario) -> tuple[list[tuple[str, bytes]], Counter[str]]:
     """(key, payload) to publish, and who must count what: "world", "agent i", and per topic
     the payloads the logger must record."""
@@ -1032,7 +1022,7 @@ def test_every_process_drops_and_counts_fuzzed_payloads_and_the_run_stays_exact(
     from tools.swarm import Swarm
     from tools.verify import verify
 
-    scenario = _short(tmp_path, "sinusoid", duration=5.0)
+    scenario = shortened(tmp_path, "sinusoid", duration=5.0)
     scn = load_scenario(scenario)
     run, other, out = unique("fuzz"), unique("fuzz-other"), tmp_path / "run.mcap"
     keys = Keys(run)

@@ -25,7 +25,7 @@ from typing import Any
 import netns
 import numpy as np
 import pytest
-from conftest import stop, unique
+from conftest import shortened, stop, unique
 
 from bus import codec
 from tools.mcap_read import iter_channel, read_trajectory
@@ -83,17 +83,6 @@ def agent_host(i: int) -> str:
 
 def endpoint(host: netns.Host) -> str:
     return f"tcp/{host.address}:{PORT}"
-
-
-def shortened(tmp_path: Path, name: str, duration: float) -> Path:
-    """A built-in scenario cut to ``duration`` seconds, as a file."""
-    lines = [
-        f"duration: {duration}" if line.startswith("duration:") else line
-        for line in load_scenario(name).source.splitlines()
-    ]
-    path = tmp_path / f"{name}-{duration:g}s.yaml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def spawn_router(

@@ -20,6 +20,7 @@ from conftest import (
     json_of,
     processes_mentioning,
     run_cli,
+    shortened,
     start_run,
     stop,
     unique,
@@ -36,18 +37,6 @@ from world.loader import builtin_names, load_scenario
 from world.metrics import summarize
 
 pytestmark = pytest.mark.integration
-
-
-def short(tmp_path: Path, name: str = "sinusoid", duration: float = 4.0) -> Path:
-    """A built-in cut to ``duration`` seconds, as a file."""
-    text = load_scenario(name).source
-    lines = [
-        f"duration: {duration}" if line.startswith("duration:") else line
-        for line in text.splitlines()
-    ]
-    path = tmp_path / f"{name}-short.yaml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def reference(scenario: str | Path) -> tuple[object, object]:
@@ -71,7 +60,7 @@ def test_lockstep_run_equals_the_reference_simulator_bit_for_bit(name: str, tmp_
 
 
 def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_path: Path) -> None:
-    scenario = short(tmp_path, "obstacles", duration=8.0)
+    scenario = shortened(tmp_path, "obstacles", duration=8.0)
     out = tmp_path / "run.mcap"
     with Swarm() as swarm, client(router) as session:
         r = start_run(swarm, session, router, str(scenario), unique("killone"), out)
@@ -96,7 +85,7 @@ def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_p
 
 
 def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path) -> None:
-    scenario = short(tmp_path, "sinusoid", duration=4.0)
+    scenario = shortened(tmp_path, "sinusoid", duration=4.0)
     outs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
     procs = [
         subprocess.Popen(
@@ -149,7 +138,7 @@ def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
 
 
 def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -> None:
-    scenario = short(tmp_path, "sinusoid", duration=3.0)
+    scenario = shortened(tmp_path, "sinusoid", duration=3.0)
     run, out = unique("junk"), tmp_path / "run.mcap"
     proc = subprocess.Popen(
         [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--json",
