@@ -48,7 +48,7 @@ def reference(scenario: str | Path) -> tuple[object, object]:
 @pytest.mark.parametrize("name", builtin_names())
 def test_lockstep_run_equals_the_reference_simulator_bit_for_bit(name: str, tmp_path: Path) -> None:
     out = tmp_path / "run.mcap"
-    proc = run_cli(["run", name, "--json", "--out", str(out)])
+    proc = run_cli(["run", name, "--json", "--no-foxglove", "--out", str(out)])
     assert proc.returncode == 0
     got = json_of(proc)
     scn = load_scenario(name)
@@ -185,7 +185,7 @@ def test_realtime_run_converges_without_collisions_and_reports_latency(
 ) -> None:
     # Speed 1 (100 ticks/s): at speed 2 eight processes on two loaded cores fell behind often
     # enough that late commands cost clearance (0.02 m once, load average 12).
-    proc = run_cli(["run", name, "--mode", "realtime", "--speed", "1", "--json",
+    proc = run_cli(["run", name, "--mode", "realtime", "--speed", "1", "--json", "--no-foxglove",
                     "--out", str(tmp_path / "run.mcap")])  # fmt: skip
     assert proc.returncode == 0
     got = json_of(proc)
