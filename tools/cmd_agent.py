@@ -10,24 +10,14 @@ import click
 from agent.process import AgentAbort, AgentNode, AgentOptions
 from bus.acl import agent_name
 from bus.runtime import exit_on_signals, warn
-from tools.options import bus_options, client_config, open_session
+from tools.options import bus_options, client_config, drop_options, open_session
 
 
 @click.command()
 @click.option("--id", "agent_id", type=click.IntRange(min=1), required=True, help="Agent id.")
 @bus_options
 @click.option("--start-timeout", default=60.0, help="Seconds to wait for the world.")
-@click.option(
-    "--drop-rate",
-    type=click.FloatRange(min=0.0, max=1.0, max_open=True),
-    default=0.0,
-    envvar="SHOAL_DROP_RATE",
-    help="Fault injection (realtime only): throw away this fraction of incoming neighbour "
-    "states, counted and reported on stderr at exit.",
-)
-@click.option(
-    "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
-)
+@drop_options
 def agent(
     agent_id: int,
     run_id: str,

@@ -15,7 +15,7 @@ from tools.certs import CertError
 from tools.cmd_export import export_beside
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.launch import RunPlan, launch
-from tools.options import check_run_id
+from tools.options import check_run_id, drop_options
 from tools.report import render_summary
 from tools.swarm import ChildFailed
 from world.loader import builtin_names
@@ -56,17 +56,7 @@ from world.loader import builtin_names
     default=True,
     help="Write Foxglove views beside the log, <log>.foxglove.mcap (docs/foxglove.md).",
 )
-@click.option(
-    "--drop-rate",
-    type=click.FloatRange(min=0.0, max=1.0, max_open=True),
-    default=0.0,
-    envvar="SHOAL_DROP_RATE",
-    help="Fault injection, realtime only: every agent throws away this fraction of incoming "
-    "neighbour states (seeded, counted).",
-)
-@click.option(
-    "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
-)
+@drop_options
 @click.option(
     "--secure",
     is_flag=True,

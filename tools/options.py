@@ -17,6 +17,21 @@ from bus.zconfig import zenoh_config
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+def drop_options(func: F) -> F:
+    """--drop-rate, --drop-seed: realtime fault injection (shoal agent, and shoal run for all)."""
+    func = click.option(
+        "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
+    )(func)
+    return click.option(
+        "--drop-rate",
+        type=click.FloatRange(min=0.0, max=1.0, max_open=True),
+        default=0.0,
+        envvar="SHOAL_DROP_RATE",
+        help="Fault injection, realtime only: throw away this fraction of incoming neighbour "
+        "states (seeded, counted, reported on stderr at exit).",
+    )(func)
+
+
 def bus_options(func: F) -> F:
     """--run, --connect, --zenoh-config, --multicast, --secure."""
     func = click.option(
