@@ -29,7 +29,7 @@ from agent.errors import ConfigError
 from bus import codec
 from bus.errors import DecodeError
 from bus.keys import Keys, agent_of
-from bus.links import publisher, subscribe, watch_presence
+from bus.links import publisher, still_present, subscribe, watch_presence
 from bus.runtime import Arrival, Inbox, warn
 from bus.types import AgentConfig, AgentState, Sensing
 
@@ -122,7 +122,11 @@ class AgentNode:
         while True:
             arrival = self.inbox.wait()
             if arrival.kind == "down" and arrival.key == self.keys.alive_world:
-                return
+                if not still_present(self.session, arrival.key):
+                    return
+                warn(f"agent {self.options.agent_id}: the world's token went down but it still "
+                     "answers; going on")  # fmt: skip
+                continue
             self._take(arrival)
             self._maybe_act()
 

@@ -40,3 +40,12 @@ def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
         inbox.put(Arrival(kind, str(sample.key_expr)))
 
     return session.liveliness().declare_subscriber(key, changed, history=True)
+
+
+def still_present(session: zenoh.Session, key: str, timeout: float = 1.0) -> bool:
+    """Whether a liveliness token on ``key`` still answers a query: the second opinion a process
+    takes before acting on a token's "down" (dropping an agent, ending a run). A real departure
+    has already left the router's table, so the answer is no, one round trip later; a "down"
+    delivered while the token lives on (seen once in CI, under load, while two other clients'
+    leases expired) is not acted on."""
+    return any(r.ok is not None for r in session.liveliness().get(key, timeout=timeout))

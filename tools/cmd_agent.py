@@ -49,6 +49,7 @@ def agent(
         finally:
             if node.dropped:
                 warn(f"agent {agent_id}: {node.dropped} bad messages dropped")
+            warn(f"agent {agent_id}: stopped after tick {node.tick}")
             warn(node.stats())
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
             warn(f"agent {agent_id}: peak_rss_kb {peak}")

@@ -23,7 +23,7 @@ import zenoh
 from bus import codec
 from bus.errors import DecodeError
 from bus.keys import Keys, agent_of
-from bus.links import publisher, subscribe, watch_presence
+from bus.links import publisher, still_present, subscribe, watch_presence
 from bus.runtime import Arrival, Inbox, warn
 from bus.types import AgentState, Command, Event, TickRecord
 from world.kinematics import integrate, sense_all
@@ -239,7 +239,11 @@ class World:
         elif arrival.kind == "down":
             self.up.discard(arrival.key)
             if i is not None and i in self.alive and tick is not None:
-                self._gone(i, tick)
+                if still_present(self.session, arrival.key):
+                    self._event(tick, 2, i, f"agent {i}'s token went down but it still answers; "
+                                "kept")  # fmt: skip
+                else:
+                    self._gone(i, tick)
         elif arrival.kind == "refused" and i is not None:
             self._event(
                 tick or 0, 3, i, f"agent {i} asked to rejoin at tick {tick}; refused (lockstep)"
