@@ -1083,3 +1083,38 @@ def test_every_process_drops_and_counts_fuzzed_payloads_and_the_run_stays_exact(
         if name.startswith("topic "):
             topic = name.removeprefix("topic ")
             assert counts.get(topic) == count + own.get(topic, 0), topic
+
+
+@pytest.mark.integration
+def test_the_world_counts_commands_that_come_before_tick_0(router: str, tmp_path: Path) -> None:
+    """Garbage on the command keys while the world still waits for everyone is counted too (no
+    agent can command before it has sensed tick 0, so every such message is bad)."""
+    from bus.links import watch_presence
+    from bus.runtime import Inbox
+    from tools.swarm import Swarm
+
+    scenario = shortened(tmp_path, "sinusoid", duration=0.5)
+    scn = load_scenario(scenario)
+    run = unique("early")
+    keys = Keys(run)
+    common = ["--run", run, "--connect", router]
+    early = [(keys.command(1 + k % scn.n), bytes([k])) for k in range(23)]
+    with Swarm() as swarm, client(router) as session:
+        seen = Inbox()
+        watching = watch_presence(session, keys.alive_world, seen)
+        world = swarm.spawn("world", "world", ["world", str(scenario), *common,
+                                               "--expect", "monitor"])  # fmt: skip
+        for i in range(1, scn.n + 1):
+            swarm.spawn(f"agent {i}", "agent", ["agent", "--id", str(i), *common])
+        assert seen.get(timeout=30) is not None  # the world's token: it waits for the monitor
+        for key, payload in early:
+            publisher(session, key).put(payload)
+        # The reply went out after the world's session had delivered every put above.
+        assert [r for r in session.get(keys.config(1), timeout=10) if r.ok is not None]
+        token = session.liveliness().declare_token(keys.alive_process("monitor"))
+        assert swarm.expect_exit({"world", "agent"}, timeout=60) == []
+        assert world.popen.returncode == 0, world.tail()
+        log = world.log.read_text(errors="replace")
+        del watching, token
+    CASES["bus: commands before tick 0"] += len(early)
+    assert f"run finished; {len(early)} bad messages dropped" in log

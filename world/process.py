@@ -114,7 +114,10 @@ class World:
             if arrival is None:
                 missing = ", ".join(sorted(wanted - self.up))
                 raise WorldAbort(f"not up after {self.options.start_timeout:g} s: {missing}")
-            self._note_presence(arrival)
+            if arrival.kind == "data":  # no agent can command before it has sensed tick 0
+                self._drop(f"{arrival.key}: a command before tick 0")
+            else:
+                self._note_presence(arrival)
         self.scenario_out.put(
             codec.encode_document(
                 "scenario", {"name": self.scenario.name, "yaml": self.scenario.source}
