@@ -8,6 +8,7 @@ Presence is a liveliness token under ``@shoal/<run>/``: the ``@`` keeps tokens o
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -118,6 +119,7 @@ class Keys:
         return f"{self.alive_root}/**"
 
 
+@functools.lru_cache(maxsize=1024)  # a process meets a handful of keys, every tick
 def agent_of(key: str) -> int | None:
     """The agent id in ``…/agent/<id>/…`` or ``…/agent/<id>``, None if there is none."""
     found = _AGENT.search(key)

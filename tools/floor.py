@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import struct
 import time
+from collections import deque
 
 import zenoh
 
 from bus.keys import Keys, agent_of
-from bus.links import publisher, subscribe, watch_presence
+from bus.links import collect, publisher, subscribe, watch_presence
 from bus.runtime import Inbox, announce_ready
+from tools.logger import BATCH_S
 
 _TICK = struct.Struct("<i")
 
@@ -99,19 +101,27 @@ def floor_agent(
 
 
 def floor_listener(session: zenoh.Session, *, run: str, role: str) -> int:
-    """The recorder (role "logger": every key) or the monitor (role "monitor": tick records);
-    counts messages until the world's token vanishes."""
+    """The recorder (role "logger": every key, queued by the callback and drained every
+    ``BATCH_S``, as the logger does) or the monitor (role "monitor": tick records, one wakeup
+    each, as ``shoal run``'s progress bar); counts messages until the world's token vanishes."""
     keys = Keys(run)
     inbox = Inbox()
-    held = [
-        subscribe(session, keys.everything if role == "logger" else keys.tick, inbox),
-        watch_presence(session, keys.alive_world, inbox),
-    ]
+    received: deque[tuple[str, bytes, int]] = deque()
+    if role == "logger":
+        data = collect(session, keys.everything, received)
+    else:
+        data = subscribe(session, keys.tick, inbox)
+    held = [data, watch_presence(session, keys.alive_world, inbox)]
     token = session.liveliness().declare_token(keys.alive_process(role))
     announce_ready(f"floor {role}")
     count, seen_world = 0, False
     while True:
-        a = inbox.wait()
+        a = inbox.get(timeout=BATCH_S) if role == "logger" else inbox.wait()
+        while received:
+            received.popleft()
+            count += 1
+        if a is None:
+            continue
         if a.kind == "up":
             seen_world = True
         elif a.kind == "down" and seen_world:

@@ -79,9 +79,10 @@ class McapLog:
         self._sequence[channel] = seq + 1
         self._writer.add_message(channel, time_ns, payload, time_ns, seq)
         self.messages += 1
-        self.flush_if_due()
 
     def flush_if_due(self) -> None:
+        """Flush chunk and file if the last flush is ``FLUSH_EVERY_S`` old (the writer's owner
+        calls this at least that often: it bounds what a SIGKILL loses)."""
         if time.monotonic() - self._last_flush >= FLUSH_EVERY_S:
             self._writer.flush()
             self._file.flush()
