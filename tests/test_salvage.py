@@ -137,3 +137,33 @@ def _copy_with(src: Path, dst: Path, *, tick: int) -> None:
             elif isinstance(r, Metadata):
                 w.add_metadata(r.name, r.metadata)
         w.finish()  # type: ignore[no-untyped-call]
+
+
+def test_a_later_scenario_on_the_runs_key_does_not_replace_the_worlds(tmp_path: Path) -> None:
+    """Without --secure anyone can publish on the run's keys: a second valid scenario document
+    (here `obstacles`, after the world's `sinusoid`) is recorded as a message but neither
+    attached nor read back as the run's scenario, so `shoal verify` checks the real one."""
+    from collections import deque
+
+    from bus import codec
+    from bus.keys import Keys
+    from tools.logger import _write
+    from tools.mcap_log import McapLog
+    from tools.mcap_read import read_documents
+
+    keys, out = Keys("forged"), tmp_path / "run.mcap"
+    received = deque(
+        (keys.scenario, codec.encode_document("scenario", {"name": n, "yaml": y}), t)
+        for t, (n, y) in enumerate(
+            (name, load_scenario(name).source) for name in ("sinusoid", "obstacles")
+        )
+    )
+    received.append((keys.summary, codec.encode_document("summary", {"steps": 0}), 2))
+    with McapLog(out, run="forged") as log:
+        assert _write(log, keys, received)  # True: the summary ends the run
+    assert read_documents(out)["scenario"]["name"] == "sinusoid"
+    with out.open("rb") as f:
+        reader = make_reader(f)
+        names = [a.name for a in reader.iter_attachments()]
+        counts = reader.get_summary().statistics.channel_message_counts  # type: ignore[union-attr]
+    assert names == ["scenario.yaml"] and sum(counts.values()) == 3

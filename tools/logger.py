@@ -81,7 +81,8 @@ def _write(log: McapLog, keys: Keys, received: deque[tuple[str, bytes, int]]) ->
             warn(f"logger: bad {key}: {exc}")
             continue
         if kind == "scenario":
-            log.attach_scenario(str(doc.get("name")), str(doc.get("yaml")), time_ns)
+            if not log.has_scenario:  # the world's comes first; a later one is not the run's
+                log.attach_scenario(str(doc.get("name")), str(doc.get("yaml")), time_ns)
         else:
             log.add_summary(doc)
             return True

@@ -49,6 +49,7 @@ class McapLog:
         self._last_flush = time.monotonic()
         self.messages = 0
         self._finished = False
+        self._scenario_attached = False
 
     def __enter__(self) -> McapLog:
         return self
@@ -88,7 +89,12 @@ class McapLog:
             self._file.flush()
             self._last_flush = time.monotonic()
 
+    @property
+    def has_scenario(self) -> bool:
+        return self._scenario_attached
+
     def attach_scenario(self, name: str, yaml_text: str, time_ns: int) -> None:
+        self._scenario_attached = True
         self._writer.add_attachment(
             time_ns, time_ns, "scenario.yaml", "application/yaml", yaml_text.encode()
         )

@@ -59,7 +59,9 @@ def read_trajectory(path: Path, *, dt: float) -> Trajectory:
 
 
 def read_documents(path: Path) -> dict[str, dict[str, Any]]:
-    """The scenario and summary documents the world published, by kind."""
+    """The scenario and summary documents the world published, by kind: the first valid one of
+    each (the world publishes each once, the scenario before tick 0 and the summary last, and
+    the logger stops at the summary; a later scenario on the run's key is someone else's)."""
     docs: dict[str, dict[str, Any]] = {}
     for kind in ("scenario", "summary"):
         for _topic, data, _ns in iter_channel(path, f"/world/{kind}"):
@@ -67,4 +69,5 @@ def read_documents(path: Path) -> dict[str, dict[str, Any]]:
                 docs[kind] = codec.decode_document(kind, data)
             except DecodeError:
                 continue  # someone else's garbage on the run's key
+            break
     return docs
