@@ -14,6 +14,7 @@ import click
 from tools.campaign import measure, render, report, run_campaign, tasks
 from tools.campaign import save_failures as write_failures
 from tools.cmd_simulate import json_safe, load_for_cli
+from tools.progress import progress_bar
 from tools.report import render_summary
 from tools.simulator import simulate
 from world.errors import ScenarioError
@@ -85,12 +86,7 @@ def campaign(
     scn = load_for_cli(base)
     todo = tasks(scn, seed, count, outside_fields if outside else 0, options)
     start = time.perf_counter()
-    with click.progressbar(
-        length=len(todo),
-        label=f"{len(todo)} fields around {scn.name}",
-        file=sys.stderr,
-        hidden=not sys.stderr.isatty(),
-    ) as bar:
+    with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
         outcomes = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
     rep = report(outcomes, time.perf_counter() - start, max(1, jobs))
     if save_failures is not None:

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
-from typing import Any
 
 import click
 
@@ -13,20 +11,15 @@ from bus.runtime import warn
 from tools.foxglove import ViewOptions
 from tools.foxglove_export import ExportError, ExportResult
 from tools.foxglove_export import export as write_views
-
-
-def _advance(bar: Any, done: int, total: int) -> None:
-    bar.length = total
-    bar.update(done - bar.pos)
+from tools.progress import advance_to, progress_bar
 
 
 def with_progress(
     raw: Path, out: Path | None, options: ViewOptions, *, show: bool = True
 ) -> ExportResult:
     """Export with a progress bar on stderr (shown only on a terminal, as other commands do)."""
-    hidden = not (show and sys.stderr.isatty())
-    with click.progressbar(length=1, label="foxglove views", file=sys.stderr, hidden=hidden) as bar:
-        return write_views(raw, out, options=options, progress=lambda k, n: _advance(bar, k, n))
+    with progress_bar(1, "foxglove views", show=show) as bar:
+        return write_views(raw, out, options=options, progress=lambda k, n: advance_to(bar, k, n))
 
 
 def export_beside(raw: Path, *, progress: bool) -> ExportResult | None:

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 
 from tools.plot import PlotError
 from tools.plot import plot as draw
+from tools.progress import progress_bar
 
 
 @click.command()
@@ -37,9 +37,7 @@ def plot(file: Path, out: Path, only: tuple[str, ...]) -> None:
     consensus        σ over time and Algorithm 1's rounds
     omega            when each agent was evading (Ω = 1)
     """
-    with click.progressbar(
-        length=len(only) or 5, label="plotting", file=sys.stderr, hidden=not sys.stderr.isatty()
-    ) as bar:
+    with progress_bar(len(only) or 5, "plotting") as bar:
         try:
             written = draw(file, out, only=only, progress=lambda _name: bar.update(1))
         except PlotError as exc:

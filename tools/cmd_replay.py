@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +9,7 @@ import click
 
 from bus.runtime import exit_on_signals
 from tools.options import client_config, open_session
+from tools.progress import progress_bar
 from tools.replay import Selection
 from tools.replay import replay as play
 
@@ -41,13 +41,10 @@ def replay(
     selection = Selection(
         tuple(t for t in topics.split(",") if t), regex or None, exclude_regex or None
     )
-    show = sys.stderr.isatty()
     with open_session(client_config(connect, None, False), "replay") as session:
         while True:
             label = f"replaying {file.name}"
-            with click.progressbar(
-                length=1000, label=label, file=sys.stderr, hidden=not show
-            ) as bar:
+            with progress_bar(1000, label) as bar:
                 sent = play(
                     session,
                     file,

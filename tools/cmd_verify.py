@@ -4,17 +4,12 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
 
 import click
 
+from tools.progress import advance_to, progress_bar
 from tools.verify import VerifyError
 from tools.verify import verify as check
-
-
-def _advance(bar: Any, tick: int, last: int) -> None:
-    bar.length = last + 1
-    bar.update(tick + 1 - bar.pos)
 
 
 @click.command()
@@ -24,11 +19,9 @@ def verify(file: Path) -> None:
 
     Exit code 0 only if every recorded tick matches bit for bit.
     """
-    with click.progressbar(
-        length=1, label="verifying", file=sys.stderr, hidden=not sys.stderr.isatty()
-    ) as bar:
+    with progress_bar(1, "verifying") as bar:
         try:
-            verdict = check(file, progress=lambda k, last: _advance(bar, k, last))
+            verdict = check(file, progress=lambda k, last: advance_to(bar, k + 1, last + 1))
         except VerifyError as exc:
             raise click.ClickException(str(exc)) from None
     click.echo(

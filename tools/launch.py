@@ -15,8 +15,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import click
-
 from bus import codec
 from bus.acl import MONITOR
 from bus.errors import DecodeError
@@ -25,6 +23,7 @@ from bus.links import subscribe, watch_presence
 from bus.runtime import Inbox, warn
 from tools.certs import make_material
 from tools.options import client_config, open_session
+from tools.progress import progress_bar
 from tools.swarm import ChildFailed, Swarm
 
 _PEAK_RSS = re.compile(r"peak_rss_kb (\d+)")
@@ -136,9 +135,7 @@ def _monitor(
         ]
         token = session.liveliness().declare_token(keys.alive_process("monitor"))
         show = plan.progress and sys.stderr.isatty()
-        with click.progressbar(
-            length=plan.steps, label="simulated time", file=sys.stderr, hidden=not show
-        ) as bar:
+        with progress_bar(plan.steps, "simulated time", show=show) as bar:
             checked = 0.0
             while True:
                 if time.monotonic() - checked >= 0.2:  # not once per tick: 0.2 s is soon enough
