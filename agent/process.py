@@ -96,8 +96,9 @@ class AgentNode:
             subscribe(session, k.state(j), self.inbox) for j in self.controller.listens_to
         ]
         self._held.append(watch_presence(session, k.alive_agents, self.inbox))
-        self.state_out = publisher(session, k.state(me))
-        self.command_out = publisher(session, k.command(me))
+        lossy = self.clock == "realtime"  # bus/links.py: a cut neighbour must not stall us
+        self.state_out = publisher(session, k.state(me), lossy=lossy)
+        self.command_out = publisher(session, k.command(me), lossy=lossy)
         self.memory = self.controller.start()
         self.gone: set[int] = set()
         self.heard: dict[int, dict[int, AgentState]] = defaultdict(dict)

@@ -1,7 +1,12 @@
 """Declaring Zenoh entities the way every shoal process needs them.
 
 Publishers block rather than drop under congestion: a lockstep protocol that lost a message
-would wait for it forever (Zenoh's default is DROP). Subscribers and presence watchers feed one
+would wait for it forever (Zenoh's default is DROP). The exception is a realtime run's
+per-tick traffic (sensing, states, commands), published ``lossy``: there a lost message is
+already tolerated (agents act on the freshest data, the world's watchdog holds an agent whose
+command is stale), while blocking would let one unreachable agent stall everyone (the router's
+queue towards it fills within ~2 s of a partition and then holds up every sender until the
+lease drops it, 10 s later). Subscribers and presence watchers feed one
 :class:`~bus.runtime.Inbox`; the returned objects must be kept alive by the caller (Zenoh
 undeclares an entity when its Python object is collected).
 """
@@ -17,10 +22,12 @@ import zenoh
 from bus.runtime import Arrival, Inbox
 
 
-def publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
+def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh.Publisher:
+    """A reliable publisher on ``key`` that blocks under congestion, or drops if ``lossy``."""
+    cc = zenoh.CongestionControl.DROP if lossy else zenoh.CongestionControl.BLOCK
     return session.declare_publisher(
         key,
-        congestion_control=zenoh.CongestionControl.BLOCK,
+        congestion_control=cc,
         reliability=zenoh.Reliability.RELIABLE,
     )
 

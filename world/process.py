@@ -93,7 +93,8 @@ class World:
             subscribe(session, k.commands, self.inbox),
             watch_presence(session, k.alive_everyone, self.inbox),
         ]
-        self.sensing_out = {i: publisher(session, k.sensing(i)) for i in self.alive}
+        lossy = options.clock == "realtime"  # bus/links.py: one cut agent must not stall all
+        self.sensing_out = {i: publisher(session, k.sensing(i), lossy=lossy) for i in self.alive}
         self.tick_out = publisher(session, k.tick)
         self.event_out = publisher(session, k.event)
         self.summary_out = publisher(session, k.summary)
