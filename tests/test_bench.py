@@ -1,0 +1,30 @@
+"""`shoal bench` end to end at a toy size: the floor, the lockstep run beside it, start-up,
+realtime latency and memory all come out as numbers (the figures themselves are
+docs/performance.md's business, not a test's)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from tools.cli import main
+
+
+@pytest.mark.integration
+def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
+    out = tmp_path / "bench.json"
+    result = CliRunner().invoke(main, ["bench", "--sizes", "3", "--ticks", "60", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    figures = json.loads(out.read_text())
+    (row,) = figures["lockstep"]
+    assert row["agents"] == 3 and row["ticks"] == 60
+    assert row["floor_ticks_per_s"] > 0 and row["lockstep_ticks_per_s"] > 0
+    ratio = row["floor_ticks_per_s"] / row["lockstep_ticks_per_s"]
+    assert row["floor_over_lockstep"] == pytest.approx(ratio, rel=1e-2)
+    assert 0 < figures["startup_s"]["3"] < 60
+    assert figures["realtime_5_agents"]["latency_p50_ms"] > 0
+    rss = figures["agent_peak_rss_mb"]
+    assert rss["processes"] == 3 and 10 < rss["median"] <= rss["max"] < 500
