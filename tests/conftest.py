@@ -11,7 +11,7 @@ import subprocess
 import sys
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +23,7 @@ from bus import codec
 from bus.keys import Keys
 from bus.links import subscribe
 from bus.runtime import Inbox
+from bus.types import Event
 from bus.zconfig import zenoh_config
 from tools.launch import free_port
 from tools.swarm import Child, Swarm
@@ -48,33 +49,51 @@ def client(endpoint: str) -> Iterator[zenoh.Session]:
 
 
 class Watcher:
-    """Follows a run's tick records from a test's own session."""
+    """Follows a run's tick records and summary (and, with ``events``, its events) from a
+    test's own session."""
 
-    def __init__(self, session: zenoh.Session, run: str) -> None:
+    def __init__(self, session: zenoh.Session, run: str, *, events: bool = False) -> None:
         self.keys = Keys(run)
         self.inbox = Inbox()
-        self._held = [
-            subscribe(session, self.keys.tick, self.inbox),
-            subscribe(session, self.keys.summary, self.inbox),
-        ]
+        kinds = [self.keys.tick, self.keys.summary] + ([self.keys.event] if events else [])
+        self._held = [subscribe(session, key, self.inbox) for key in kinds]
+        self.events: list[Event] = []
         self.last_tick = -1
         self.summary: dict[str, Any] | None = None
 
-    def until_tick(self, tick: int, timeout: float = 120.0) -> None:
+    def until(self, done: Callable[[], bool], what: str, timeout: float = 120.0) -> None:
         deadline = time.monotonic() + timeout
-        while self.last_tick < tick and self.summary is None:
+        while not done():
             arrival = self.inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
             if arrival is None:
-                raise AssertionError(f"tick {tick} not reached in {timeout} s")
-            if arrival.key == self.keys.summary:
-                self.summary = codec.decode_document("summary", arrival.payload)
-            else:
+                raise AssertionError(f"{what}: not seen within {timeout} s")
+            if arrival.key == self.keys.event:
+                self.events.append(codec.decode_event(arrival.payload))
+            elif arrival.key == self.keys.tick:
                 self.last_tick = codec.decode_tick(arrival.payload).tick
+            elif arrival.key == self.keys.summary:
+                self.summary = codec.decode_document("summary", arrival.payload)
+
+    def until_tick(self, tick: int, timeout: float = 120.0) -> None:
+        """Until tick ``tick`` is recorded, or the run is over."""
+        done = lambda: self.last_tick >= tick or self.summary is not None  # noqa: E731
+        self.until(done, f"tick {tick}", timeout)
 
     def until_summary(self, timeout: float = 120.0) -> dict[str, Any]:
-        self.until_tick(10**12, timeout)
+        self.until(lambda: self.summary is not None, "the summary", timeout)
         assert self.summary is not None
         return self.summary
+
+    def event(self, agent: int, word: str) -> Event | None:
+        found = [e for e in self.events if e.agent == agent and word in e.text]
+        return found[0] if found else None
+
+    def until_event(self, agent: int, word: str, timeout: float = 120.0) -> Event:
+        self.until(lambda: self.event(agent, word) is not None, f"{word!r} of agent {agent}",
+                   timeout)  # fmt: skip
+        found = self.event(agent, word)
+        assert found is not None
+        return found
 
 
 def run_cli(args: list[str], timeout: float = 300.0) -> subprocess.CompletedProcess[str]:

@@ -18,13 +18,11 @@ import os
 import signal
 import subprocess
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import zenoh
 from conftest import (
     PYTHON,
     Watcher,
@@ -55,54 +53,6 @@ pytestmark = pytest.mark.integration
 DT = 0.01  # s, every built-in's step
 
 
-class Bus:
-    """A run's events, ticks and summary, followed from the test's own session."""
-
-    def __init__(self, session: zenoh.Session, run: str) -> None:
-        self.keys = Keys(run)
-        self.inbox = Inbox()
-        self._held = [
-            subscribe(session, self.keys.event, self.inbox),
-            subscribe(session, self.keys.tick, self.inbox),
-            subscribe(session, self.keys.summary, self.inbox),
-        ]
-        self.events: list[Event] = []
-        self.last_tick = -1
-        self.summary: dict[str, Any] | None = None
-
-    def until(self, done: Callable[[], bool], what: str, timeout: float = 120.0) -> None:
-        deadline = time.monotonic() + timeout
-        while not done():
-            arrival = self.inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
-            if arrival is None:
-                raise AssertionError(f"{what}: not seen within {timeout} s")
-            if arrival.key == self.keys.event:
-                self.events.append(codec.decode_event(arrival.payload))
-            elif arrival.key == self.keys.tick:
-                self.last_tick = codec.decode_tick(arrival.payload).tick
-            elif arrival.key == self.keys.summary:
-                self.summary = codec.decode_document("summary", arrival.payload)
-
-    def event(self, agent: int, word: str) -> Event | None:
-        found = [e for e in self.events if e.agent == agent and word in e.text]
-        return found[0] if found else None
-
-    def until_event(self, agent: int, word: str, timeout: float = 120.0) -> Event:
-        self.until(lambda: self.event(agent, word) is not None, f"{word!r} of agent {agent}",
-                   timeout)  # fmt: skip
-        found = self.event(agent, word)
-        assert found is not None
-        return found
-
-    def until_tick(self, tick: int) -> None:
-        self.until(lambda: self.last_tick >= tick or self.summary is not None, f"tick {tick}")
-
-    def until_summary(self, timeout: float = 120.0) -> dict[str, Any]:
-        self.until(lambda: self.summary is not None, "the summary", timeout)
-        assert self.summary is not None
-        return self.summary
-
-
 def logged_events(out: Path) -> list[Event]:
     return [codec.decode_event(d) for _t, d, _ns in iter_channel(out, "/world/event")]
 
@@ -121,7 +71,7 @@ def test_realtime_sigkill_of_a_follower_is_survived_and_logged(router: str, tmp_
     with Swarm() as swarm, client(router) as session:
         r = start_run(swarm, session, router, str(scenario), unique("rtkill"), out,
                       clock="realtime")  # fmt: skip
-        bus = Bus(session, r.watcher.keys.run)
+        bus = Watcher(session, r.watcher.keys.run, events=True)
         bus.until_tick(200)
         os.kill(r.agents[2].popen.pid, signal.SIGKILL)  # follower 3
         r.agents[2].done = True
@@ -160,7 +110,7 @@ def test_restarted_follower_is_taken_back_and_returns_to_its_slot_in_realtime(
     run = unique("rejoin")
     with Swarm() as swarm, client(router) as session:
         r = start_run(swarm, session, router, str(scenario), run, out, clock="realtime")
-        bus = Bus(session, run)
+        bus = Watcher(session, run, events=True)
         bus.until_tick(300)
         os.kill(r.agents[3].popen.pid, signal.SIGKILL)
         r.agents[3].done = True
@@ -215,7 +165,7 @@ def test_restarted_follower_is_refused_in_lockstep(router: str, tmp_path: Path) 
     run = unique("refuse")
     with Swarm() as swarm, client(router) as session:
         r = start_run(swarm, session, router, str(scenario), run, out)
-        bus = Bus(session, run)
+        bus = Watcher(session, run, events=True)
         bus.until_tick(50)
         os.kill(r.agents[3].popen.pid, signal.SIGKILL)
         r.agents[3].done = True
@@ -253,7 +203,7 @@ def test_leader_killed_stops_everyone_and_ends_the_run(
     run = unique("leader")
     with Swarm() as swarm, client(router) as session:
         r = start_run(swarm, session, router, str(scenario), run, out, clock=clock)
-        bus = Bus(session, run)
+        bus = Watcher(session, run, events=True)
         bus.until_tick(150)
         os.kill(r.agents[0].popen.pid, signal.SIGKILL)
         r.agents[0].done = True
@@ -325,7 +275,7 @@ def test_world_killed_agents_stop_commanding_and_exit_0(
             watch_presence(session, keys.alive_world, inbox),
         ]
         r = start_run(swarm, session, router, str(scenario), run, out, clock=clock)
-        bus = Bus(session, run)
+        bus = Watcher(session, run, events=True)
         bus.until_tick(150)
         os.kill(r.world.popen.pid, signal.SIGKILL)
         killed = time.monotonic()
