@@ -31,8 +31,6 @@ from world.metrics import summarize
 from world.scenario import Scenario
 from world.trajectory import Trajectory
 
-LEADER = 1  # the agent with the path; the scenario's agent 1 (world/scenario.py)
-
 
 class WorldAbort(RuntimeError):
     """The run cannot go on (agents never came up, or stopped answering)."""
@@ -257,7 +255,7 @@ class World:
         self.alive.discard(i)
         self.departed[i] = tick
         self.latest.pop(i, None)
-        if i == LEADER:
+        if self.scenario.agent_config(i).is_leader:  # the one agent with the path
             self.aborted = f"the leader (agent {i}) is gone at tick {tick}"
             self._event(tick, 4, i, f"{self.aborted}; every agent held still and the run ends here")
         elif self.options.clock == "realtime":
