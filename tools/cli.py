@@ -3,11 +3,19 @@
 Subcommands are imported only when invoked: an agent process (``shoal agent``) then loads the
 controller and the bus but not the logger, MCAP, YAML or benchmark code, which keeps its start
 fast and its memory small (there may be fifty of them on one machine).
+
+Every shoal process is single-threaded in its numerics (vectors of two or three numbers), so
+OpenBLAS is told to start no thread pool unless the user says otherwise: its threads cost each
+process 0.15 s of CPU at import, which is most of a 50-agent start on two cores
+(docs/performance.md).
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before anything imports numpy
 
 import click
 
