@@ -121,6 +121,47 @@ def processes_mentioning(text: str) -> list[int]:
     return found
 
 
+def _stat(pid: int) -> list[str] | None:
+    """/proc/PID/stat's fields after the command name (state first), or None if it is gone."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return text[text.rfind(")") + 2 :].split()
+
+
+def descendants(root: int) -> dict[int, tuple[str, str]]:
+    """Every live process below ``root``: pid → (its name, its start time). The start time
+    tells a process from a later one that reuses its pid."""
+    parents: dict[int, int] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and (fields := _stat(int(entry.name))) and fields[0] != "Z":
+            parents[int(entry.name)] = int(fields[1])
+    tree: set[int] = set()
+    grew = True
+    while grew:
+        below = {p for p, pp in parents.items() if (pp == root or pp in tree) and p not in tree}
+        tree |= below
+        grew = bool(below)
+    found = {}
+    for pid in tree:
+        with contextlib.suppress(OSError):
+            name = Path(f"/proc/{pid}/comm").read_text().strip()
+            if (fields := _stat(pid)) is not None:
+                found[pid] = (name, fields[19])
+    return found
+
+
+def still_running(snapshot: dict[int, tuple[str, str]]) -> dict[int, str]:
+    """Those of a :func:`descendants` snapshot that still run (same pid, same start time)."""
+    left = {}
+    for pid, (name, started) in snapshot.items():
+        fields = _stat(pid)
+        if fields is not None and fields[0] != "Z" and fields[19] == started:
+            left[pid] = name
+    return left
+
+
 def stop(proc: subprocess.Popen[Any], timeout: float = 20.0) -> int:
     """SIGTERM, wait, then SIGKILL: a test never leaves a process behind."""
     if proc.poll() is None:

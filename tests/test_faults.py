@@ -27,6 +27,7 @@ from conftest import (
     PYTHON,
     Watcher,
     client,
+    descendants,
     json_of,
     processes_mentioning,
     shortened,
@@ -239,7 +240,7 @@ def test_shoal_run_exits_1_naming_the_leader_when_it_dies(router: str, tmp_path:
     try:
         with client(router) as session:
             Watcher(session, run).until_tick(100)
-        (leader,) = processes_mentioning(f"agent --id 1 --run {run}")
+        (leader,) = [p for p, (name, _) in descendants(proc.pid).items() if name == "agent 1"]
         os.kill(leader, signal.SIGKILL)
         stdout, stderr = proc.communicate(timeout=60)
     finally:

@@ -17,11 +17,13 @@ from conftest import (
     PYTHON,
     Watcher,
     client,
+    descendants,
     json_of,
     processes_mentioning,
     run_cli,
     shortened,
     start_run,
+    still_running,
     stop,
     unique,
 )
@@ -201,7 +203,8 @@ def test_realtime_run_converges_without_collisions_and_reports_latency(
 
 
 def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> None:
-    """Children die with their supervisor (PR_SET_PDEATHSIG), even when it cannot clean up."""
+    """Children die with their supervisor (PR_SET_PDEATHSIG), even when it cannot clean up;
+    agents forked by the fork server die with it, and it with ``shoal run``."""
     run = unique("orphans")
     proc = subprocess.Popen(
         [*PYTHON, "run", "sinusoid", "--connect", router, "--run", run,
@@ -212,16 +215,16 @@ def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> 
     try:
         with client(router) as session:
             Watcher(session, run).until_tick(50)
-        assert len(processes_mentioning(f"--run {run}")) >= 8  # shoal run, world, logger, 5 agents
+        tree = descendants(proc.pid)  # world, logger, the fork server and 5 agents
+        names = sorted(name for name, _started in tree.values())
+        assert [n for n in names if n.startswith("agent ")] == [f"agent {i}" for i in range(1, 6)]
+        assert len(tree) == 8, names
         proc.kill()
         proc.wait(timeout=10)
         deadline = time.monotonic() + 15
-        while processes_mentioning(f"--run {run}") and time.monotonic() < deadline:
+        while still_running(tree) and time.monotonic() < deadline:
             os.sched_yield()  # waiting on a condition with a deadline, not on the clock
-        left = {
-            pid: Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
-            for pid in processes_mentioning(f"--run {run}")
-        }
+        left = still_running(tree)
     finally:
         stop(proc)
     assert left == {}

@@ -5,7 +5,8 @@ Ctrl-C reaches only the supervisor, which then stops the children in a safe orde
 world first, the logger after them (so it records everything and finishes its file), the router
 last. Children also get SIGTERM from the kernel if the supervisor itself dies (Linux
 PR_SET_PDEATHSIG), so not even a SIGKILL of ``shoal run`` leaves orphans. Each child's stderr
-goes to its own file, whose tail is shown when it fails.
+goes to its own file, whose tail is shown when it fails. Agents are forked from a fork server
+that has imported their code once (tools/zygote.py), under the same guarantees.
 """
 
 from __future__ import annotations
@@ -27,12 +28,21 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO
 
+from tools.forks import Forked, ForkServerGone, Zygote
+
 _PR_SET_PDEATHSIG = 1
+_PR_SET_NAME = 15
 _libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
 
 
-def _die_with_parent() -> None:  # runs in the child between fork and exec
+def die_with_parent() -> None:
+    """Ask the kernel for SIGTERM when the parent thread dies (in a child, before it runs)."""
     _libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def name_process(name: str) -> None:
+    """Name this process for ``top`` and ``ps -o comm`` (the kernel keeps 15 bytes)."""
+    _libc.prctl(_PR_SET_NAME, name.encode()[:15], 0, 0, 0)
 
 
 class ChildFailed(RuntimeError):
@@ -42,9 +52,9 @@ class ChildFailed(RuntimeError):
 @dataclass
 class Child:
     name: str
-    popen: subprocess.Popen[bytes]
+    popen: subprocess.Popen[bytes] | Forked
     log: Path
-    role: str  # "agent", "world", "logger", "router"
+    role: str  # "agent", "world", "logger", "router", "zygote" (the agents' fork server)
     done: bool = False  # expected to have exited
 
     def tail(self, lines: int = 12) -> str:
@@ -61,6 +71,8 @@ class Swarm:
 
     log_dir: Path = field(default_factory=lambda: Path(tempfile.mkdtemp(prefix="shoal-run-")))
     children: list[Child] = field(default_factory=list)
+    fork_agents: bool = True  # fork agents from one process that has imported them already
+    zygote: Zygote | None = None
 
     def __enter__(self) -> Swarm:
         return self
@@ -84,20 +96,49 @@ class Swarm:
     ) -> Child:
         """Start ``shoal <args>`` as a child. ``prefix`` goes before the interpreter, e.g.
         ``ip netns exec NS`` to start it on another (namespace) host; the prefix must exec the
-        command in place, so that the child's pid, signals and PDEATHSIG stay the command's."""
+        command in place, so that the child's pid, signals and PDEATHSIG stay the command's.
+        An agent on this host is forked from the fork server instead (``fork_agents``)."""
         log = self.log_dir / f"{name.replace(' ', '-')}.log"
-        with log.open("wb") as err:
-            popen = subprocess.Popen(
-                [*prefix, sys.executable, "-m", "tools", *args],
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE if ready_pipe else subprocess.DEVNULL,
-                stderr=err,
-                start_new_session=True,
-                preexec_fn=_die_with_parent,  # safe: no threads exist at spawn time
-            )
+        popen: subprocess.Popen[bytes] | Forked
+        if role == "agent" and self.fork_agents and not prefix and not ready_pipe:
+            try:
+                popen = self._fork_server(args).fork(name, args, str(log))
+            except ForkServerGone as exc:
+                raise ChildFailed(f"{name}: {exc}") from None
+        else:
+            with log.open("wb") as err:
+                popen = subprocess.Popen(
+                    [*prefix, sys.executable, "-m", "tools", *args],
+                    stdin=subprocess.DEVNULL,
+                    stdout=subprocess.PIPE if ready_pipe else subprocess.DEVNULL,
+                    stderr=err,
+                    start_new_session=True,
+                    preexec_fn=die_with_parent,  # safe: no threads exist at spawn time
+                )
         child = Child(name, popen, log, role)
         self.children.append(child)
         return child
+
+    def _fork_server(self, args: list[str]) -> Zygote:
+        """The fork server, started on first use. Its command line (which forked agents show
+        too) carries the run id of the first agent, so that ``pgrep -f -- '--run RUN'`` finds
+        every process of a run."""
+        if self.zygote is None:
+            log = self.log_dir / "agent-fork-server.log"
+            at = args.index("--run") if "--run" in args[:-1] else None
+            label = [] if at is None else args[at : at + 2]
+            with log.open("wb") as err:
+                popen = subprocess.Popen(
+                    [sys.executable, "-m", "tools.zygote", *label],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=err,
+                    start_new_session=True,
+                    preexec_fn=die_with_parent,
+                )
+            self.children.append(Child("agent fork server", popen, log, "zygote"))
+            self.zygote = Zygote(popen, str(log))
+        return self.zygote
 
     def wait_ready(self, child: Child, timeout: float, *, prefix: str = "ready") -> str:
         """Block until ``child`` prints a line starting with ``prefix``; returns that line."""
@@ -141,9 +182,15 @@ class Swarm:
         return [c for c in chosen if c.popen.poll() is None]
 
     def stop(self) -> None:
-        """Stop every child still running: agents and world, then logger, then router; each
-        group gets SIGTERM, a grace period, then SIGKILL."""
-        for roles, grace in (({"agent", "world"}, 5.0), ({"logger"}, 10.0), ({"router"}, 5.0)):
+        """Stop every child still running: agents and world, then logger, then router (and the
+        agents' fork server); each group gets SIGTERM, a grace period, then SIGKILL."""
+        for roles, grace in (
+            ({"agent", "world"}, 5.0),
+            ({"logger"}, 10.0),
+            ({"router", "zygote"}, 5.0),
+        ):
+            if "zygote" in roles and self.zygote is not None:
+                self.zygote.close()  # it leaves when its stdin closes; SIGTERM if it does not
             group = [c for c in self.children if c.role in roles and c.popen.poll() is None]
             for c in group:
                 c.done = True
