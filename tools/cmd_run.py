@@ -141,7 +141,7 @@ def run(
     else:
         click.echo(render_summary(summary))
         click.echo(
-            f"{'processes':<24}  {scn.n + 3 - bool(connect)}, {result.wall_s:.1f} s wall, "
+            f"{'processes':<24}  {result.processes}, {result.wall_s:.1f} s wall, "
             f"all agents up in {result.startup_s:.1f} s"
         )
         click.echo(f"{'log':<24}  {plan.out}")

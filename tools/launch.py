@@ -63,6 +63,7 @@ class RunResult:
     agent_peak_rss_mb: list[float]  # one per agent process that reported it
     lost: tuple[str, ...] = ()  # agents that died during the run, e.g. "agent 3 (exit code -9)"
     agent_stats: tuple[str, ...] = ()  # each agent's stats line (agent/process.py, stats())
+    processes: int = 0  # OS processes started for the run (agents' fork server included)
 
 
 def launch(plan: RunPlan) -> RunResult:
@@ -110,7 +111,8 @@ def launch(plan: RunPlan) -> RunResult:
             for c in swarm.children
             if c.role == "agent" and (m := _STATS.search(c.tail(4)))
         )
-    return RunResult(summary, startup, time.monotonic() - started, rss, tuple(lost), stats)
+        wall = time.monotonic() - started
+        return RunResult(summary, startup, wall, rss, tuple(lost), stats, len(swarm.children))
 
 
 def _monitor(
