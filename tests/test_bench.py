@@ -26,5 +26,12 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
     assert row["floor_over_lockstep"] == pytest.approx(ratio, rel=1e-2)
     assert 0 < figures["startup_s"]["3"] < 60
     assert figures["realtime_5_agents"]["latency_p50_ms"] > 0
+    kinds = {"agent", "logger", "monitor", "router", "world", "total"}
+    for run, cpu in row["cpu_us_per_tick"].items():
+        assert set(cpu) == kinds, run
+        processes = 3 * cpu["agent"] + sum(cpu[k] for k in kinds - {"agent", "total"})
+        assert cpu["total"] == pytest.approx(processes, abs=1.0), run  # agent: one's share
+        # 60 ticks last ~0.2 s: a quiet process may not reach one 10 ms clock tick of CPU
+        assert cpu["total"] > 0 and min(cpu.values()) >= 0, run
     rss = figures["agent_peak_rss_mb"]
     assert rss["processes"] == 3 and 10 < rss["median"] <= rss["max"] < 500

@@ -21,6 +21,7 @@ from typing import Any
 import yaml
 
 from tools.bench_scenarios import bench_scenario
+from tools.cpu import CpuWindow, swarm_processes
 from tools.launch import RunPlan, RunResult, free_port, launch
 from tools.swarm import Swarm
 
@@ -71,9 +72,17 @@ def measure_floor(n: int, ticks: int, timeout: float = 120.0) -> dict[str, Any]:
             swarm.spawn(f"floor agent {i}", "agent", args)
         for child in listeners:
             swarm.wait_ready(child, timeout)
+        cpu = CpuWindow(lambda: swarm_processes(swarm))
+        swarm.wait_ready(world, timeout, prefix="ready floor ticking")
+        cpu.open()
         result = json.loads(swarm.wait_ready(world, timeout, prefix="{"))
+        cpu.close(ticks)
         swarm.expect_exit({"world", "agent", "logger"}, timeout=10.0)
-    return {"ticks_per_s": round(result["ticks_per_s"], 1), "steal": steal.fraction()}
+    return {
+        "ticks_per_s": round(result["ticks_per_s"], 1),
+        "steal": steal.fraction(),
+        "cpu_us_per_tick": cpu.figures,
+    }
 
 
 def measure_run(n: int, ticks: int, workdir: Path, *, clock: str = "lockstep") -> RunResult:
@@ -86,6 +95,7 @@ def measure_run(n: int, ticks: int, workdir: Path, *, clock: str = "lockstep") -
         out=workdir / f"bench-{n}-{clock}.mcap",
         run_id=f"bench-{uuid.uuid4().hex[:8]}",
         clock=clock,
+        measure_cpu=True,
     )
     return launch(plan)
 
@@ -116,6 +126,10 @@ def bench(
                     "latency_p99_ms": real.summary["latency_p99_ms"],
                     "steal_floor": floor["steal"],
                     "steal_lockstep": steal.fraction(),
+                    "cpu_us_per_tick": {
+                        "floor": floor["cpu_us_per_tick"],
+                        "lockstep": real.cpu_us_per_tick,
+                    },
                 }
             )
             startup[str(n)] = real.startup_s

@@ -39,9 +39,10 @@ def bench(
     settle: float,
     repeats: int,
 ) -> None:
-    """Measure lockstep ticks/s against a bare Zenoh exchange of the same message pattern, the
-    time until every agent is up, realtime command latency and memory per agent process; or,
-    with --drops, the formation error against the fraction of lost neighbour messages.
+    """Measure lockstep ticks/s against a bare Zenoh exchange of the same message pattern
+    (with each kind of process's CPU per tick in both), the time until every agent is up,
+    realtime command latency and memory per agent process; or, with --drops, the formation
+    error against the fraction of lost neighbour messages.
 
     Prints one JSON object; progress goes to stderr.
     """

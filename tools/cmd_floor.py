@@ -32,7 +32,7 @@ def world_cmd(run_id: str, connect: str, agents: int, ticks: int) -> None:
     sizes = message_sizes(load_bench(agents, ticks))
     with _session(connect, "floor world") as session:
         result = floor_world(session, run=run_id, agents=agents, ticks=ticks, sizes=sizes)
-    click.echo(json.dumps(result))
+        click.echo(json.dumps(result))  # before the session closes: the agents are still up
 
 
 @floor.command("agent")

@@ -52,6 +52,7 @@ def floor_world(
         a = inbox.wait()
         if a.kind == "up":
             up.add(a.key)
+    announce_ready("floor ticking")  # a benchmark opens its CPU window here
     start = time.monotonic()
     for k in range(ticks):
         for i in out:

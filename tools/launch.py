@@ -7,11 +7,12 @@ for every agent's, the logger's and this monitor's liveliness tokens before its 
 
 from __future__ import annotations
 
+import os
 import re
 import socket
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,7 @@ from bus.keys import Keys
 from bus.links import subscribe, watch_presence
 from bus.runtime import Inbox, warn
 from tools.certs import make_material
+from tools.cpu import CpuWindow, swarm_processes
 from tools.options import client_config, open_session
 from tools.progress import progress_bar
 from tools.swarm import ChildFailed, Swarm
@@ -53,6 +55,7 @@ class RunPlan:
     drop_seed: int = 0
     secure: bool = False  # TLS, passwords and the router's ACL (docs/security.md)
     secure_dir: Path | None = None  # their material; None makes a fresh one in the run folder
+    measure_cpu: bool = False  # account each process's CPU per tick (tools/cpu.py; the benchmark)
 
 
 @dataclass(frozen=True)
@@ -64,6 +67,7 @@ class RunResult:
     lost: tuple[str, ...] = ()  # agents that died during the run, e.g. "agent 3 (exit code -9)"
     agent_stats: tuple[str, ...] = ()  # each agent's stats line (agent/process.py, stats())
     processes: int = 0  # OS processes started for the run (agents' fork server included)
+    cpu_us_per_tick: dict[str, float] = field(default_factory=dict)  # with plan.measure_cpu
 
 
 def launch(plan: RunPlan) -> RunResult:
@@ -98,7 +102,9 @@ def launch(plan: RunPlan) -> RunResult:
             swarm.spawn(f"agent {i}", "agent", args)
         swarm.wait_ready(logger, plan.start_timeout)
         lost: list[str] = []
-        summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost)
+        cpu = CpuWindow(lambda: swarm_processes(swarm, monitor=os.getpid()))
+        window = cpu if plan.measure_cpu else None
+        summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost, window)
         swarm.expect_exit({"world", "agent"}, timeout=10.0)
         swarm.expect_exit({"logger"}, timeout=10.0)
         rss = [
@@ -112,11 +118,18 @@ def launch(plan: RunPlan) -> RunResult:
             if c.role == "agent" and (m := _STATS.search(c.tail(4)))
         )
         wall = time.monotonic() - started
-        return RunResult(summary, startup, wall, rss, tuple(lost), stats, len(swarm.children))
+        processes = len(swarm.children)
+        return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu.figures)
 
 
 def _monitor(
-    swarm: Swarm, keys: Keys, endpoint: str, plan: RunPlan, began: float, lost: list[str]
+    swarm: Swarm,
+    keys: Keys,
+    endpoint: str,
+    plan: RunPlan,
+    began: float,
+    lost: list[str],
+    window: CpuWindow | None = None,
 ) -> tuple[dict[str, Any], float]:
     """Follow the run from a client session until the world's summary arrives; also returns
     the seconds from ``began`` until every agent's token was up.
@@ -124,8 +137,10 @@ def _monitor(
     An agent that dies does not end the run: the world owns membership (it holds the agent
     still, logs it, and ends the run itself if it was the leader); the agent is noted in
     ``lost`` and on stderr. Any other child that exits early fails the run, unless the world's
-    summary is already on its way (the world exits right after publishing it)."""
+    summary is already on its way (the world exits right after publishing it). A CPU
+    ``window`` is opened at the first tick record and closed at the last one."""
     inbox = Inbox()
+    records = 0
     agents_up: set[str] = set()
     startup = float("nan")
     conf = client_config((endpoint,), None, False, plan.secure_dir, MONITOR)
@@ -165,6 +180,11 @@ def _monitor(
                     if arrival.key == keys.summary:
                         summary = codec.decode_document("summary", arrival.payload)
                         break
+                    records += 1
+                    if window is not None and records == 1:
+                        window.open()
+                    elif window is not None and records == plan.steps:
+                        window.close(plan.steps - 1)
                     if show:  # a hidden bar needs no tick number: skip decoding every record
                         tick = codec.decode_tick(arrival.payload).tick
                         bar.update(tick + 1 - bar.pos)
