@@ -186,6 +186,7 @@ class World:
         agent's command for tick k is in; in realtime when the tick's wall-clock period ends;
         in either, at once when the leader is gone."""
         latest = self.latest
+        silent = self._silent(k)  # kept up to date, not recomputed per arrival (n² per tick)
         while self.aborted is None:
             if clock.realtime:
                 left = clock.deadline - time.monotonic()
@@ -195,16 +196,14 @@ class World:
                 if arrival is None:
                     return
             else:
-                silent = [
-                    i for i in sorted(self.alive) if i not in latest or latest[i][1].tick != k
-                ]
                 if not silent:
                     return
                 arrival = self.inbox.get(timeout=self.options.answer_timeout)
                 if arrival is None:
-                    raise WorldAbort(f"tick {k}: no command from agent(s) {silent} in time")
+                    raise WorldAbort(f"tick {k}: no command from agent(s) {sorted(silent)} in time")
             if arrival.kind != "data":
                 self._note_presence(arrival, tick=k)
+                silent = self._silent(k)  # an agent may have gone (or come back)
                 continue
             report = self._valid_report(arrival, k)
             if report is None:
@@ -213,6 +212,13 @@ class World:
             if i in self.alive and (i not in latest or latest[i][1].tick < tick):
                 latest[i] = report
                 clock.answered(tick)
+                if tick == k:
+                    silent.discard(i)
+
+    def _silent(self, k: int) -> set[int]:
+        """The live agents whose command for tick k is not in yet."""
+        latest = self.latest
+        return {i for i in self.alive if i not in latest or latest[i][1].tick != k}
 
     def _valid_report(self, arrival: Arrival, k: int) -> tuple[AgentState, Command] | None:
         try:
