@@ -1,5 +1,10 @@
 """The supervisor's side of the agent fork server (tools/zygote.py): ask it to fork, and follow
-the exits it reports. Kept apart from the server, which imports numpy and zenoh."""
+the exits it reports. Kept apart from the server, which imports numpy and zenoh.
+
+A pid names a process only until that process is reaped; the server reaps, so the supervisor
+knows a forked process by its pid *and* its start time, and an exit report goes to the process
+that was forked under that pid, never to a later one that reuses it.
+"""
 
 from __future__ import annotations
 
@@ -12,23 +17,38 @@ import subprocess
 import time
 from typing import IO
 
+from tools.lines import LineReader
+
 
 class ForkServerGone(RuntimeError):
-    """The fork server ended (or stopped answering) while it still owed an answer."""
+    """The fork server ended, stopped answering, or could not fork."""
+
+
+def start_time(pid: int) -> str | None:
+    """When process ``pid`` started (clock ticks since boot, as /proc gives it), or None if
+    there is no such live process (gone, or a zombie)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return None if fields[0] == "Z" else fields[19]
 
 
 class Zygote:
     """The supervisor's handle on a running fork server: fork requests and exit reports."""
 
     def __init__(self, popen: subprocess.Popen[bytes], log: str) -> None:
+        assert popen.stdin is not None and popen.stdout is not None
         self.popen = popen  # with stdin and stdout pipes
         self.log = log  # the server's own stderr, for the error when it fails
-        self.codes: dict[int, int] = {}  # pid → exit code, as reported
-        self._buf = b""
-        self._pids: list[int] = []  # answers to fork requests not yet taken
+        self._reader = LineReader(popen.stdout)
+        self._answers: list[tuple[str, str]] = []  # ("pid", PID) or ("error", why), in order
+        self._live: dict[int, Forked] = {}  # pid → the process forked under it, until it exits
+        self._early: dict[int, int] = {}  # exits reported before their Forked was made
 
     def fork(self, name: str, args: list[str], log: str, timeout: float = 60.0) -> Forked:
-        """Fork ``shoal <args>`` (stderr to ``log``); returns once its pid is known."""
+        """Fork ``shoal <args>`` (stderr to ``log``); returns once the child is set up."""
         stdin: IO[bytes] | None = self.popen.stdin
         if stdin is None or stdin.closed:
             raise ForkServerGone("the agent fork server is closed")
@@ -39,13 +59,23 @@ class Zygote:
             self._close_stdin()
             raise ForkServerGone(self._why("exited")) from None
         deadline = time.monotonic() + timeout
-        while not self._pids:
+        while not self._answers:
             left = deadline - time.monotonic()
             if left <= 0:
+                # A late answer would be taken for the next request's: stop using the server.
+                self._close_stdin()
                 raise ForkServerGone(self._why(f"did not fork within {timeout:g} s"))
-            if self._line(left) is None and self._ended():
+            if self._line(left) is None and self.ended():
                 raise ForkServerGone(self._why("exited"))
-        return Forked(self, self._pids.pop(0), args)
+        word, text = self._answers.pop(0)
+        if word == "error":
+            raise ForkServerGone(f"the agent fork server could not fork {name}: {text}")
+        child = Forked(self, int(text), args)
+        if child.pid in self._early:
+            child.code = self._early.pop(child.pid)
+        else:
+            self._live[child.pid] = child
+        return child
 
     def pump(self, timeout: float) -> None:
         """Take in everything the server has said, waiting at most ``timeout`` s for a line."""
@@ -58,19 +88,18 @@ class Zygote:
         get SIGTERM from the kernel); read what it still had to say."""
         self._close_stdin()
         deadline = time.monotonic() + timeout
-        while not self._ended() and time.monotonic() < deadline:
+        while not self.ended() and time.monotonic() < deadline:
             self._line(max(deadline - time.monotonic(), 0.0))
+
+    def ended(self) -> bool:
+        """Whether the server's stdout has ended (it exited) with nothing left unread."""
+        return self._reader.exhausted
 
     def _close_stdin(self) -> None:
         stdin = self.popen.stdin
         if stdin is not None and not stdin.closed:
             with contextlib.suppress(BrokenPipeError):  # unsent bytes of a server that is gone
                 stdin.close()
-
-    def _ended(self) -> bool:
-        """Whether the server's stdout is at its end (it exited) with nothing left unread."""
-        stream = self.popen.stdout
-        return stream is None or stream.closed
 
     def _why(self, what: str) -> str:
         try:
@@ -81,32 +110,28 @@ class Zygote:
         return f"the agent fork server {what}:\n{tail}".rstrip()
 
     def _line(self, timeout: float) -> str | None:
-        """One line from the server (pid and exit reports are recorded), or None if there is
-        none within ``timeout`` s or the stream has ended."""
-        stream = self.popen.stdout
-        while b"\n" not in self._buf:
-            if stream is None or stream.closed:
-                return None
-            if not select.select([stream.fileno()], [], [], timeout)[0]:
-                return None
-            chunk = os.read(stream.fileno(), 65536)
-            if not chunk:
-                stream.close()
-                return None
-            self._buf += chunk
-        raw, self._buf = self._buf.split(b"\n", 1)
-        line = raw.decode(errors="replace")
-        word, *rest = line.split() or [""]
-        if word == "pid":
-            self._pids.append(int(rest[0]))
+        """One line from the server, taken into account, or None if there is none within
+        ``timeout`` s or its stdout has ended."""
+        line = self._reader.line(timeout)
+        if line is None:
+            return None
+        word, _, rest = line.partition(" ")
+        if word in ("pid", "error"):
+            self._answers.append((word, rest))
         elif word == "exit":
-            self.codes[int(rest[0])] = int(rest[1])
+            pid, code = (int(x) for x in rest.split())
+            child = self._live.pop(pid, None)
+            if child is None:
+                self._early[pid] = code
+            else:
+                child.code = code
         return line
 
 
 class Forked:
     """A process forked by the server, with the part of ``subprocess.Popen`` that the
-    supervisor and the tests use: ``pid``, ``poll``, ``wait``, ``returncode``, ``stdout``."""
+    supervisor and the tests use: ``pid``, ``poll``, ``wait``, ``send_signal``, ``returncode``,
+    ``stdout``."""
 
     stdout: IO[bytes] | None = None  # a forked child never has a ready pipe
 
@@ -114,19 +139,22 @@ class Forked:
         self.zygote = zygote
         self.pid = pid
         self.args = args
+        self.code: int | None = None  # as reported by the server
+        self.started = start_time(pid)  # tells this process from a later one with its pid
 
     @property
     def returncode(self) -> int | None:
-        return self.zygote.codes.get(self.pid)
+        return self.code
 
     def poll(self) -> int | None:
-        if self.returncode is None:
+        if self.code is None:
             self.zygote.pump(0.0)
-        if self.returncode is None and self.zygote._ended() and not self._exists():
-            # The server died before it could report this exit; its death is what ended the
-            # process (PR_SET_PDEATHSIG sends SIGTERM), so that is the code it is given.
-            self.zygote.codes[self.pid] = -signal.SIGTERM
-        return self.returncode
+        if self.code is None and self.zygote.ended() and not self.alive():
+            # The server died before it could report this exit. Its death is what ends its
+            # children (PR_SET_PDEATHSIG sends SIGTERM), so that is the code given; a child
+            # that had ended by itself just before is reported the same way.
+            self.code = -signal.SIGTERM
+        return self.code
 
     def wait(self, timeout: float | None = None) -> int:
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -134,22 +162,18 @@ class Forked:
             left = 1.0 if deadline is None else deadline - time.monotonic()
             if left <= 0:
                 raise subprocess.TimeoutExpired(self.args, timeout or 0.0)
-            if self.zygote._ended():  # no more reports: look at the process itself
-                _pause(min(left, 0.01))
+            if self.zygote.ended():  # no more reports: look at the process itself
+                select.select([], [], [], min(left, 0.01))  # nothing else can wake us
             else:
                 self.zygote.pump(min(left, 1.0))
         return code
 
-    def _exists(self) -> bool:
-        """Whether the pid still names a live process (orphaned, it is reaped by init)."""
-        try:
-            with open(f"/proc/{self.pid}/stat") as f:
-                return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-        except (OSError, IndexError):
-            return False
+    def send_signal(self, sig: int) -> None:
+        """Signal the process if it is still the one forked (not a later one with its pid)."""
+        if self.poll() is None and self.alive():
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self.pid, sig)
 
-
-def _pause(seconds: float) -> None:
-    """Wait a little between looks at /proc; nothing else can wake us when the server is
-    gone (the process is no child of ours)."""
-    select.select([], [], [], seconds)
+    def alive(self) -> bool:
+        """Whether the pid still names this process, running (not a zombie, not reused)."""
+        return self.started is not None and start_time(self.pid) == self.started

@@ -14,8 +14,6 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
-import os
-import select
 import shutil
 import signal
 import subprocess
@@ -29,6 +27,7 @@ from types import TracebackType
 from typing import IO
 
 from tools.forks import Forked, ForkServerGone, Zygote
+from tools.lines import LineReader
 
 _PR_SET_PDEATHSIG = 1
 _PR_SET_NAME = 15
@@ -45,6 +44,13 @@ def name_process(name: str) -> None:
     _libc.prctl(_PR_SET_NAME, name.encode()[:15], 0, 0, 0)
 
 
+# Stop order: each group gets SIGTERM, then this many seconds, then SIGKILL.
+STOP_ORDER = (({"agent", "world"}, 5.0), ({"logger"}, 10.0), ({"router", "zygote"}, 5.0))
+# What a supervisor (shoal run, shoal bench) may take to stop after SIGTERM/SIGINT before its
+# own watchdog ends it (bus/runtime.py, exit_on_signals): every group's grace, and a margin.
+SUPERVISOR_GRACE_S = int(sum(grace for _, grace in STOP_ORDER)) + 10
+
+
 class ChildFailed(RuntimeError):
     """A child exited when it should not have, or never became ready."""
 
@@ -56,6 +62,7 @@ class Child:
     log: Path
     role: str  # "agent", "world", "logger", "router", "zygote" (the agents' fork server)
     done: bool = False  # expected to have exited
+    reader: LineReader | None = None  # its ready pipe's lines, once waited on
 
     def tail(self, lines: int = 12) -> str:
         try:
@@ -145,18 +152,19 @@ class Swarm:
         stream: IO[bytes] | None = child.popen.stdout
         if stream is None:
             raise ChildFailed(f"{child.name}: spawned without a ready pipe")
+        if child.reader is None:
+            child.reader = LineReader(stream)
         deadline = time.monotonic() + timeout
         while (left := deadline - time.monotonic()) > 0:
-            readable, _, _ = select.select([stream], [], [], left)
-            if not readable:
-                break
-            line = stream.readline().decode(errors="replace").strip()
-            if line.startswith(prefix):
-                return line
-            if not line and child.popen.poll() is not None:
+            line = child.reader.line(left)
+            if line is not None and line.strip().startswith(prefix):
+                return line.strip()
+            if child.reader.exhausted:  # it closed its stdout: it is exiting, or has
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    child.popen.wait(timeout=max(deadline - time.monotonic(), 0.1))
+                code = child.popen.returncode
                 raise ChildFailed(
-                    f"{child.name} exited with code {child.popen.returncode} before it was "
-                    f"ready:\n{child.tail()}"
+                    f"{child.name} exited with code {code} before it was ready:\n{child.tail()}"
                 )
         raise ChildFailed(f"{child.name} not ready after {timeout:g} s:\n{child.tail()}")
 
@@ -184,11 +192,7 @@ class Swarm:
     def stop(self) -> None:
         """Stop every child still running: agents and world, then logger, then router (and the
         agents' fork server); each group gets SIGTERM, a grace period, then SIGKILL."""
-        for roles, grace in (
-            ({"agent", "world"}, 5.0),
-            ({"logger"}, 10.0),
-            ({"router", "zygote"}, 5.0),
-        ):
+        for roles, grace in STOP_ORDER:
             if "zygote" in roles and self.zygote is not None:
                 self.zygote.close()  # it leaves when its stdin closes; SIGTERM if it does not
             group = [c for c in self.children if c.role in roles and c.popen.poll() is None]
@@ -210,4 +214,4 @@ class Swarm:
 
 def _signal(child: Child, sig: int) -> None:
     with contextlib.suppress(ProcessLookupError):
-        os.kill(child.popen.pid, sig)
+        child.popen.send_signal(sig)  # neither kind signals a pid it no longer owns

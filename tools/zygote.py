@@ -16,6 +16,7 @@ of the zygote):
   → ``{"name": NAME, "args": [...], "log": PATH}``   fork ``shoal <args>``, stderr to PATH
   ← ``pid PID``                                      in answer, in request order, once the
                                                      child is set up (named, own session)
+  ← ``error WHY``                                    instead, if it could not fork
   ← ``exit PID CODE``                                when it ends (CODE < 0: killed by -CODE)
 """
 
@@ -121,17 +122,31 @@ def serve() -> None:
         pending += chunk
         *lines, pending = pending.split(b"\n")
         for line in lines:
-            request = json.loads(line)
-            sys.stderr.flush()
-            set_up_r, set_up_w = os.pipe()
-            pid = os.fork()
-            if pid == 0:
-                _child(request, zygote, (wake_r, wake_w, set_up_r), set_up_w)
-            os.close(set_up_w)
-            os.read(set_up_r, 1)  # b"" if it failed first: its exit is reported all the same
-            os.close(set_up_r)
-            say(f"pid {pid}")
+            try:
+                pid = _fork(json.loads(line), zygote, (wake_r, wake_w))
+            except (OSError, ValueError) as exc:  # EAGAIN, EMFILE, ENOMEM; a bad request line
+                say(f"error {type(exc).__name__}: {' '.join(str(exc).split())}")
+            else:
+                say(f"pid {pid}")
         reap()
+
+
+def _fork(request: dict[str, Any], zygote: int, wakeup: tuple[int, int]) -> int:
+    """Fork one child for ``request``; returns its pid once it is set up (or has failed)."""
+    sys.stderr.flush()
+    set_up_r, set_up_w = os.pipe()
+    try:
+        pid = os.fork()
+        if pid == 0:
+            _child(request, zygote, (*wakeup, set_up_r), set_up_w)
+        os.close(set_up_w)
+        set_up_w = -1
+        os.read(set_up_r, 1)  # b"" if it failed first: its exit is reported all the same
+        return pid
+    finally:
+        for fd in (set_up_r, set_up_w):
+            if fd >= 0:
+                os.close(fd)
 
 
 if __name__ == "__main__":
