@@ -8,14 +8,25 @@ import sys
 from dataclasses import dataclass
 from types import FrameType
 
+EXIT_GRACE_S = 10  # s a process may take to clean up after SIGTERM/SIGINT (docker stop's 10)
 
-def exit_on_signals() -> None:
+
+def exit_on_signals(grace: int = EXIT_GRACE_S) -> None:
     """Turn SIGTERM (docker stop, a supervisor) and SIGINT into SystemExit, so ``with`` blocks
-    and ``finally`` clauses run: sessions close, tokens vanish, log files get finished."""
+    and ``finally`` clauses run: sessions close, tokens vanish, log files get finished.
+
+    The signal also arms a watchdog: if the clean-up has not ended the process ``grace``
+    seconds later (a native call that never returns, say a session closing while another
+    thread waits for the GIL), SIGALRM's default action ends it, so a process asked to stop
+    never lingers, whoever asked and whether or not they follow up with SIGKILL."""
 
     def stop(signum: int, _frame: FrameType | None) -> None:
+        left = signal.alarm(grace)
+        if left:  # not the first signal: the first one's deadline stands
+            signal.alarm(left)
         raise SystemExit(128 + signum)
 
+    signal.signal(signal.SIGALRM, signal.SIG_DFL)
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
 

@@ -11,7 +11,7 @@ import click
 from bus.runtime import exit_on_signals
 from tools.bench import bench as run_bench
 from tools.bench_drops import bench_drops
-from tools.swarm import ChildFailed
+from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
 
 @click.command()
@@ -46,7 +46,7 @@ def bench(
 
     Prints one JSON object; progress goes to stderr.
     """
-    exit_on_signals()
+    exit_on_signals(grace=SUPERVISOR_GRACE_S)
     if drops is not None:
         try:
             rates = [float(s) for s in drops.split(",") if s.strip()]

@@ -17,7 +17,7 @@ from tools.cmd_simulate import json_safe, load_for_cli
 from tools.launch import RunPlan, launch
 from tools.options import check_run_id, drop_options
 from tools.report import render_summary
-from tools.swarm import ChildFailed
+from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from world.loader import builtin_names
 
 
@@ -89,7 +89,7 @@ def run(
     Prints the same summary as `shoal simulate`; the lockstep trajectory equals the reference
     simulator's bit for bit, and the whole run is recorded in an MCAP file.
     """
-    exit_on_signals()
+    exit_on_signals(grace=SUPERVISOR_GRACE_S)
     if drop_rate > 0 and mode != "realtime":
         raise click.BadParameter(
             "needs --mode realtime: a lockstep run waits for every state, so a dropped one "
