@@ -3,11 +3,14 @@ clean-up hangs. Real processes, readiness from their stdout, no sleeps."""
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
 
 import pytest
+
+from tools.swarm import SUPERVISOR_ENV
 
 _HANGS_IN_CLEANUP = """
 import threading
@@ -48,3 +51,15 @@ def test_a_clean_up_that_hangs_is_ended_by_the_watchdog_even_through_a_second_si
             assert proc.wait(timeout=30) == -signal.SIGALRM
         finally:
             proc.kill()
+
+
+def test_a_child_whose_supervisor_is_not_its_parent_leaves_at_once() -> None:
+    """tools/swarm.py, adopt_supervisor: a child started for a supervisor that has died (so the
+    child was re-parented) exits 1 before doing anything; under its real supervisor it runs."""
+    command = [sys.executable, "-m", "tools", "scenarios"]
+    env = {**os.environ, SUPERVISOR_ENV: "1"}  # init is nobody's supervisor here
+    orphan = subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
+    assert (orphan.returncode, orphan.stdout) == (1, "")
+    env[SUPERVISOR_ENV] = str(os.getpid())
+    supervised = subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
+    assert supervised.returncode == 0 and "default" in supervised.stdout

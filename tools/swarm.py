@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import os
 import shutil
 import signal
 import subprocess
@@ -34,9 +35,26 @@ _PR_SET_NAME = 15
 _libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
 
 
+SUPERVISOR_ENV = "SHOAL_SUPERVISOR_PID"  # set for a child by the Swarm that starts it
+
+
 def die_with_parent() -> None:
     """Ask the kernel for SIGTERM when the parent thread dies (in a child, before it runs)."""
     _libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def adopt_supervisor() -> None:
+    """First thing in a process a Swarm started: die with the supervisor (SIGTERM when it
+    dies), and leave at once if it has died already, before this line. Done by the child
+    itself rather than between fork and exec, which is unsafe in a supervisor with threads (a
+    test process with Zenoh sessions open). The variable is taken out of the environment, so
+    that processes this one starts do not act on it."""
+    supervisor = os.environ.pop(SUPERVISOR_ENV, None)
+    if supervisor is None:
+        return
+    die_with_parent()
+    if str(os.getppid()) != supervisor:
+        os._exit(1)
 
 
 def name_process(name: str) -> None:
@@ -120,7 +138,7 @@ class Swarm:
                     stdout=subprocess.PIPE if ready_pipe else subprocess.DEVNULL,
                     stderr=err,
                     start_new_session=True,
-                    preexec_fn=die_with_parent,  # safe: no threads exist at spawn time
+                    env=_supervised(),  # the child dies with us (adopt_supervisor)
                 )
         child = Child(name, popen, log, role)
         self.children.append(child)
@@ -141,7 +159,7 @@ class Swarm:
                     stdout=subprocess.PIPE,
                     stderr=err,
                     start_new_session=True,
-                    preexec_fn=die_with_parent,
+                    env=_supervised(),
                 )
             self.children.append(Child("agent fork server", popen, log, "zygote"))
             self.zygote = Zygote(popen, str(log))
@@ -210,6 +228,11 @@ class Swarm:
             if c.popen.stdout is not None:
                 c.popen.stdout.close()
         shutil.rmtree(self.log_dir, ignore_errors=True)
+
+
+def _supervised() -> dict[str, str]:
+    """The environment of a child: ours, and who supervises it."""
+    return {**os.environ, SUPERVISOR_ENV: str(os.getpid())}
 
 
 def _signal(child: Child, sig: int) -> None:

@@ -31,9 +31,13 @@ import sys
 import traceback
 from typing import Any
 
-from tools.cli import main as _cli  # first: it keeps OpenBLAS from starting a thread pool
+from tools.swarm import adopt_supervisor, die_with_parent, name_process
+
+if __name__ == "__main__":
+    adopt_supervisor()  # before the slow imports: the server dies with the supervisor
+
+from tools.cli import main as _cli  # before numpy: no OpenBLAS thread pool
 from tools.cmd_agent import agent as _agent  # noqa: F401  (what every child will need)
-from tools.swarm import die_with_parent, name_process
 
 # -- the zygote process --------------------------------------------------------------------------
 
@@ -83,7 +87,8 @@ def _child(request: dict[str, Any], zygote: int, inherited: tuple[int, ...], rea
 
 def serve() -> None:
     """The zygote's loop: fork on each request line, report each child's exit, and leave when
-    stdin closes (the supervisor is done or gone). It was started with PDEATHSIG already."""
+    stdin closes (the supervisor is done or gone); it dies with the supervisor in any case
+    (adopt_supervisor)."""
     zygote = os.getpid()
     wake_r, wake_w = os.pipe()
     os.set_blocking(wake_w, False)
