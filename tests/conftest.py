@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -26,6 +27,7 @@ from bus.runtime import Inbox
 from bus.types import Event
 from bus.zconfig import zenoh_config
 from tools.launch import free_port
+from tools.procfs import PPID, START_TIME, STATE, stat_fields
 from tools.swarm import Child, Swarm
 from world.loader import load_scenario
 
@@ -121,22 +123,14 @@ def processes_mentioning(text: str) -> list[int]:
     return found
 
 
-def _stat(pid: int) -> list[str] | None:
-    """/proc/PID/stat's fields after the command name (state first), or None if it is gone."""
-    try:
-        text = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    return text[text.rfind(")") + 2 :].split()
-
-
 def descendants(root: int) -> dict[int, tuple[str, str]]:
     """Every live process below ``root``: pid → (its name, its start time). The start time
     tells a process from a later one that reuses its pid."""
     parents: dict[int, int] = {}
     for entry in Path("/proc").iterdir():
-        if entry.name.isdigit() and (fields := _stat(int(entry.name))) and fields[0] != "Z":
-            parents[int(entry.name)] = int(fields[1])
+        fields = stat_fields(int(entry.name)) if entry.name.isdigit() else None
+        if fields is not None and fields[STATE] != "Z":
+            parents[int(entry.name)] = int(fields[PPID])
     tree: set[int] = set()
     grew = True
     while grew:
@@ -147,8 +141,8 @@ def descendants(root: int) -> dict[int, tuple[str, str]]:
     for pid in tree:
         with contextlib.suppress(OSError):
             name = Path(f"/proc/{pid}/comm").read_text().strip()
-            if (fields := _stat(pid)) is not None:
-                found[pid] = (name, fields[19])
+            if (fields := stat_fields(pid)) is not None:
+                found[pid] = (name, fields[START_TIME])
     return found
 
 
@@ -156,10 +150,29 @@ def still_running(snapshot: dict[int, tuple[str, str]]) -> dict[int, str]:
     """Those of a :func:`descendants` snapshot that still run (same pid, same start time)."""
     left = {}
     for pid, (name, started) in snapshot.items():
-        fields = _stat(pid)
-        if fields is not None and fields[0] != "Z" and fields[19] == started:
+        fields = stat_fields(pid)
+        if fields is not None and fields[STATE] != "Z" and fields[START_TIME] == started:
             left[pid] = name
     return left
+
+
+def still_running_after(snapshot: dict[int, tuple[str, str]], within: float) -> dict[int, str]:
+    """Those of a :func:`descendants` snapshot still running once they have all ended or
+    ``within`` s have passed, each with its state and what it waits in, to say why."""
+    deadline = time.monotonic() + within
+    while still_running(snapshot) and time.monotonic() < deadline:
+        select.select([], [], [], 0.01)  # a condition polled with a deadline; leaves the CPU
+    return {pid: f"{name} {_why(pid)}" for pid, name in still_running(snapshot).items()}
+
+
+def _why(pid: int) -> str:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+        wchan = Path(f"/proc/{pid}/wchan").read_text()
+    except OSError:
+        return "(gone)"
+    state = next((line for line in status.splitlines() if line.startswith("State:")), "")
+    return f"{state.split(maxsplit=1)[-1]}, waiting in {wchan or '?'}"
 
 
 def stop(proc: subprocess.Popen[Any], timeout: float = 20.0) -> int:

@@ -4,15 +4,13 @@ process reports, and that no way of ending the server leaves one of them behind.
 from __future__ import annotations
 
 import os
-import select
 import signal
 import subprocess
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from conftest import descendants, still_running
+from conftest import descendants, still_running_after
 
 from tools.forks import Forked, ForkServerGone, Zygote
 from tools.launch import free_port
@@ -27,26 +25,6 @@ def _router_args() -> list[str]:
 
 def _name(pid: int) -> str:
     return Path(f"/proc/{pid}/comm").read_text().strip()
-
-
-def _gone(snapshot: dict[int, tuple[str, str]], within: float = 30.0) -> dict[int, str]:
-    """Those of ``snapshot`` still running once they all ended or ``within`` s passed (more
-    than the 10 s watchdog of a process that hangs while stopping, bus/runtime.py), each with
-    its state and what it waits in, to say why."""
-    deadline = time.monotonic() + within
-    while still_running(snapshot) and time.monotonic() < deadline:
-        select.select([], [], [], 0.01)  # a condition polled with a deadline; leaves the CPU
-    return {pid: f"{name} {_why(pid)}" for pid, name in still_running(snapshot).items()}
-
-
-def _why(pid: int) -> str:
-    try:
-        status = Path(f"/proc/{pid}/status").read_text()
-        wchan = Path(f"/proc/{pid}/wchan").read_text()
-    except OSError:
-        return "(gone)"
-    state = next((line for line in status.splitlines() if line.startswith("State:")), "")
-    return f"{state.split(maxsplit=1)[-1]}, waiting in {wchan or '?'}"
 
 
 def test_a_forked_command_reports_its_exit_code_and_writes_stderr_to_its_log() -> None:
@@ -78,7 +56,9 @@ def test_killing_the_fork_server_ends_its_children_and_stop_still_returns() -> N
         tree = descendants(server.pid)
         assert sorted(name for name, _ in tree.values()) == ["agent 1", "agent 2", "agent 3"]
         os.kill(server.pid, signal.SIGKILL)
-        assert _gone(tree) == {}  # PR_SET_PDEATHSIG: the kernel ended them with the server
+        # PR_SET_PDEATHSIG: the kernel ends them with the server. 30 s: more than the 10 s
+        # watchdog of a process that hangs while stopping (bus/runtime.py).
+        assert still_running_after(tree, 30.0) == {}
         with pytest.raises(ChildFailed, match="agent fork server"):
             swarm.check()
         # The server can no longer report their exits: each wait ends all the same.

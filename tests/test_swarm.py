@@ -8,7 +8,6 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import time
 from pathlib import Path
 
 import msgpack
@@ -23,7 +22,7 @@ from conftest import (
     run_cli,
     shortened,
     start_run,
-    still_running,
+    still_running_after,
     stop,
     unique,
 )
@@ -221,10 +220,7 @@ def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> 
         assert len(tree) == 8, names
         proc.kill()
         proc.wait(timeout=10)
-        deadline = time.monotonic() + 15
-        while still_running(tree) and time.monotonic() < deadline:
-            os.sched_yield()  # waiting on a condition with a deadline, not on the clock
-        left = still_running(tree)
+        left = still_running_after(tree, 15.0)
     finally:
         stop(proc)
     assert left == {}

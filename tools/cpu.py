@@ -12,6 +12,7 @@ import os
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Mapping
 
+from tools.procfs import STIME, UTIME, stat_fields
 from tools.swarm import Swarm
 
 _TICKS_PER_S = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
@@ -19,12 +20,8 @@ _TICKS_PER_S = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
 def cpu_seconds(pid: int) -> float | None:
     """User + system CPU seconds of process ``pid`` so far, or None if it cannot be read."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-    except (OSError, IndexError):
-        return None
-    return (int(fields[11]) + int(fields[12])) / _TICKS_PER_S  # utime, stime
+    fields = stat_fields(pid)
+    return None if fields is None else (int(fields[UTIME]) + int(fields[STIME])) / _TICKS_PER_S
 
 
 def snapshot(processes: Iterable[tuple[str, int]]) -> dict[int, tuple[str, float]]:

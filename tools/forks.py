@@ -18,6 +18,7 @@ import time
 from typing import IO
 
 from tools.lines import LineReader
+from tools.procfs import START_TIME, STATE, stat_fields
 
 
 class ForkServerGone(RuntimeError):
@@ -27,12 +28,8 @@ class ForkServerGone(RuntimeError):
 def start_time(pid: int) -> str | None:
     """When process ``pid`` started (clock ticks since boot, as /proc gives it), or None if
     there is no such live process (gone, or a zombie)."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-    except (OSError, IndexError):
-        return None
-    return None if fields[0] == "Z" else fields[19]
+    fields = stat_fields(pid)
+    return None if fields is None or fields[STATE] == "Z" else fields[START_TIME]
 
 
 class Zygote:
@@ -45,7 +42,6 @@ class Zygote:
         self._reader = LineReader(popen.stdout)
         self._answers: list[tuple[str, str]] = []  # ("pid", PID) or ("error", why), in order
         self._live: dict[int, Forked] = {}  # pid → the process forked under it, until it exits
-        self._early: dict[int, int] = {}  # exits reported before their Forked was made
 
     def fork(self, name: str, args: list[str], log: str, timeout: float = 60.0) -> Forked:
         """Fork ``shoal <args>`` (stderr to ``log``); returns once the child is set up."""
@@ -71,10 +67,7 @@ class Zygote:
         if word == "error":
             raise ForkServerGone(f"the agent fork server could not fork {name}: {text}")
         child = Forked(self, int(text), args)
-        if child.pid in self._early:
-            child.code = self._early.pop(child.pid)
-        else:
-            self._live[child.pid] = child
+        self._live[child.pid] = child  # before any later line: its exit report comes after
         return child
 
     def pump(self, timeout: float) -> None:
@@ -121,9 +114,7 @@ class Zygote:
         elif word == "exit":
             pid, code = (int(x) for x in rest.split())
             child = self._live.pop(pid, None)
-            if child is None:
-                self._early[pid] = code
-            else:
+            if child is not None:  # None: the child of a request abandoned (the server closed)
                 child.code = code
         return line
 

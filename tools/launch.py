@@ -102,8 +102,9 @@ def launch(plan: RunPlan) -> RunResult:
             swarm.spawn(f"agent {i}", "agent", args)
         swarm.wait_ready(logger, plan.start_timeout)
         lost: list[str] = []
-        cpu = CpuWindow(lambda: swarm_processes(swarm, monitor=os.getpid()))
-        window = cpu if plan.measure_cpu else None
+        window = None
+        if plan.measure_cpu:
+            window = CpuWindow(lambda: swarm_processes(swarm, monitor=os.getpid()))
         summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost, window)
         swarm.expect_exit({"world", "agent"}, timeout=10.0)
         swarm.expect_exit({"logger"}, timeout=10.0)
@@ -119,7 +120,8 @@ def launch(plan: RunPlan) -> RunResult:
         )
         wall = time.monotonic() - started
         processes = len(swarm.children)
-        return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu.figures)
+        cpu = window.figures if window is not None else {}
+        return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu)
 
 
 def _monitor(

@@ -38,9 +38,12 @@ _libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
 SUPERVISOR_ENV = "SHOAL_SUPERVISOR_PID"  # set for a child by the Swarm that starts it
 
 
-def die_with_parent() -> None:
-    """Ask the kernel for SIGTERM when the parent thread dies (in a child, before it runs)."""
+def die_with(parent: int) -> None:
+    """In a child: ask the kernel for SIGTERM when the parent thread dies, and leave at once
+    if the parent is no longer ``parent`` (it died before the request took effect)."""
     _libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def adopt_supervisor() -> None:
@@ -50,11 +53,8 @@ def adopt_supervisor() -> None:
     test process with Zenoh sessions open). The variable is taken out of the environment, so
     that processes this one starts do not act on it."""
     supervisor = os.environ.pop(SUPERVISOR_ENV, None)
-    if supervisor is None:
-        return
-    die_with_parent()
-    if str(os.getppid()) != supervisor:
-        os._exit(1)
+    if supervisor is not None:
+        die_with(int(supervisor))
 
 
 def name_process(name: str) -> None:
@@ -131,15 +131,9 @@ class Swarm:
             except ForkServerGone as exc:
                 raise ChildFailed(f"{name}: {exc}") from None
         else:
-            with log.open("wb") as err:
-                popen = subprocess.Popen(
-                    [*prefix, sys.executable, "-m", "tools", *args],
-                    stdin=subprocess.DEVNULL,
-                    stdout=subprocess.PIPE if ready_pipe else subprocess.DEVNULL,
-                    stderr=err,
-                    start_new_session=True,
-                    env=_supervised(),  # the child dies with us (adopt_supervisor)
-                )
+            stdout = subprocess.PIPE if ready_pipe else subprocess.DEVNULL
+            command = [*prefix, sys.executable, "-m", "tools", *args]
+            popen = _start(command, log, stdin=subprocess.DEVNULL, stdout=stdout)
         child = Child(name, popen, log, role)
         self.children.append(child)
         return child
@@ -152,15 +146,8 @@ class Swarm:
             log = self.log_dir / "agent-fork-server.log"
             at = args.index("--run") if "--run" in args[:-1] else None
             label = [] if at is None else args[at : at + 2]
-            with log.open("wb") as err:
-                popen = subprocess.Popen(
-                    [sys.executable, "-m", "tools.zygote", *label],
-                    stdin=subprocess.PIPE,
-                    stdout=subprocess.PIPE,
-                    stderr=err,
-                    start_new_session=True,
-                    env=_supervised(),
-                )
+            command = [sys.executable, "-m", "tools.zygote", *label]
+            popen = _start(command, log, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
             self.children.append(Child("agent fork server", popen, log, "zygote"))
             self.zygote = Zygote(popen, str(log))
         return self.zygote
@@ -230,9 +217,17 @@ class Swarm:
         shutil.rmtree(self.log_dir, ignore_errors=True)
 
 
-def _supervised() -> dict[str, str]:
-    """The environment of a child: ours, and who supervises it."""
-    return {**os.environ, SUPERVISOR_ENV: str(os.getpid())}
+def _start(command: list[str], log: Path, *, stdin: int, stdout: int) -> subprocess.Popen[bytes]:
+    """A child in its own session, stderr to ``log``, that dies with us (adopt_supervisor)."""
+    with log.open("wb") as err:
+        return subprocess.Popen(
+            command,
+            stdin=stdin,
+            stdout=stdout,
+            stderr=err,
+            start_new_session=True,
+            env={**os.environ, SUPERVISOR_ENV: str(os.getpid())},
+        )
 
 
 def _signal(child: Child, sig: int) -> None:

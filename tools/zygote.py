@@ -31,7 +31,7 @@ import sys
 import traceback
 from typing import Any
 
-from tools.swarm import adopt_supervisor, die_with_parent, name_process
+from tools.swarm import adopt_supervisor, die_with, name_process
 
 if __name__ == "__main__":
     adopt_supervisor()  # before the slow imports: the server dies with the supervisor
@@ -57,9 +57,7 @@ def _child(request: dict[str, Any], zygote: int, inherited: tuple[int, ...], rea
         for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGINT):
             signal.signal(sig, signal.SIG_DFL)
         os.setsid()
-        die_with_parent()
-        if os.getppid() != zygote:  # the zygote died before the line above: do not linger
-            os._exit(1)
+        die_with(zygote)
         null = os.open(os.devnull, os.O_RDWR)
         log = os.open(request["log"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         os.dup2(null, 0)
