@@ -20,6 +20,11 @@ from agent.formation import FloatArray
 _MAX_ALONG_COS = np.cos(np.deg2rad(30.0))
 
 
+# m/s: with ``strict`` bidding, an agent slower than this (a settled formation's chattering)
+# asks for no contraction.
+BID_SPEED = 0.1
+
+
 def epoch_start(tick: int, rounds: int) -> bool:
     """True on the first tick of an epoch of ``rounds`` ticks."""
     return tick % max(rounds, 1) == 0
@@ -41,6 +46,7 @@ def passage_bid(
     safety_margin: float,
     epsilon: float,
     sigma_max: float,
+    strict: bool = False,
 ) -> float:
     """σ^i: the contraction this agent asks for, ≥ 1 (1 = no narrow passage in its way).
 
@@ -52,9 +58,15 @@ def passage_bid(
     expansion never pulls an agent back into the passage. The leader goes through a passage's
     middle and the formation is scaled about the leader, so it fits when
     formation_radius / σ ≤ w/2 - ρ - ε. A gap with no usable width bids ``sigma_max``.
+
+    ``strict`` (on with the safety filter; off keeps the paper mode's trajectories as they
+    were): only a gap the agent is actually in line with counts — its position across the pair
+    lies between the two centres — and only while it moves at least :data:`BID_SPEED`. Without
+    these, an agent beside a pair, whose heading is dominated by the formation's own reshaping,
+    bids and unbids every epoch, and σ flips for good (docs/safety.md, liveness).
     """
     speed = float(np.linalg.norm(heading))
-    if speed < 1e-9 or formation_radius <= 0.0:
+    if speed < (BID_SPEED if strict else 1e-9) or formation_radius <= 0.0:
         return 1.0
     unit = heading / speed
     bid = 1.0
@@ -72,6 +84,8 @@ def passage_bid(
             through = unit - float(unit @ across) * across
             through /= float(np.linalg.norm(through))
             mid = (centres[j] + centres[k]) / 2.0
+            if strict and abs(float((position - mid) @ across)) > length / 2.0:
+                continue  # beside the pair, not in line with its gap
             far = max(radii[j], radii[k]) + safety_margin + epsilon
             ahead = min(
                 float((position - mid) @ through), float((position + slot_shift - mid) @ through)

@@ -5,7 +5,8 @@ A tick has two halves, because neighbours must hear each other before anyone mov
 1. ``announce(memory, sensing)``: from the world's sensing, decide Ω_i and the σ bid and produce
    the state this agent tells its neighbours.
 2. ``act(memory, sensing, neighbour_states)``: with the neighbours' states of the same tick, drop
-   the edges to evading neighbours, compute v_i, take one consensus round, produce the command.
+   the edges to evading neighbours, compute the nominal v̂_i, pass it through the safety filter
+   (bus/safety.py; unless ``safety: paper``), take one consensus round, produce the command.
 
 Both are pure: memory in, memory out. The agent process and the reference simulator call exactly
 these two methods, which is why a lockstep distributed run can equal the simulator bit for bit.
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.collision import Evasion, collision_course
+from agent.collision import Evasion, collision_course, ray_distance, segment_distance
 from agent.consensus import consensus_round, epoch_start, passage_bid
 from agent.errors import ConfigError
 from agent.formation import (
@@ -30,6 +31,7 @@ from agent.formation import (
     velocity,
 )
 from bus.path import leader_velocity
+from bus.safety import safe_velocity
 from bus.types import AgentConfig, AgentState, Command, Sensing
 
 
@@ -41,12 +43,23 @@ class Memory:
     evasion : the evasive episode in force (Ω_i = 1), or None.
     bid : this agent's current value in Algorithm 1.
     sigma_consensus : the factor agreed in the last finished epoch, applied now.
+    target : (dim,) m, where the plain law (1) of the last tick pulled the agent, without u^o
+        (its set-point, where e_i = 0); None before, or without a neighbour, or in paper mode.
     """
 
     heading: FloatArray
     evasion: Evasion | None
     bid: float
     sigma_consensus: float
+    target: FloatArray | None = None
+    busy: int = 0
+
+
+# s: the longest a busy follower abstains from bidding for a contraction (see Memory.busy).
+BUSY_TIME = 5.0
+# A follower is far from its slot (busy) while ‖e_i‖∞ / deg_i exceeds this many β·dt: the
+# sign term's chattering band (the default convergence tolerance).
+BUSY_BAND = 10.0
 
 
 class Controller:
@@ -64,6 +77,8 @@ class Controller:
         self.smoothing = 1.0 if tau <= 0 else 1.0 - math.exp(-config.dt / tau)
         self.listens_to = tuple(sorted(set(config.senses) | set(config.talks_to)))
         self._shapes: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
+        self.busy_ticks = round(BUSY_TIME / config.dt)
+        self.busy_error = BUSY_BAND * self.params.beta * config.dt
 
     def _shaped(self, sigma: float, theta: float) -> tuple[FloatArray, FloatArray]:
         """R(θ)δ/σ of this agent and of its sensed neighbours, computed once per (σ, θ)."""
@@ -107,16 +122,22 @@ class Controller:
                 self._shaped(demanded, theta)[0]
                 - self._shaped(demanded * memory.sigma_consensus, theta)[0]
             )
-            bid = passage_bid(
-                position,
-                memory.heading,
-                centres,
-                radii,
-                formation_radius=self.config.formation_radius / demanded,
-                slot_shift=slot_shift,
-                safety_margin=p.safety_margin,
-                epsilon=p.epsilon,
-                sigma_max=p.sigma_max,
+            manoeuvring = p.filtered and 0 < memory.busy <= self.busy_ticks
+            bid = (
+                1.0
+                if manoeuvring
+                else passage_bid(
+                    position,
+                    memory.heading,
+                    centres,
+                    radii,
+                    formation_radius=self.config.formation_radius / demanded,
+                    slot_shift=slot_shift,
+                    safety_margin=p.safety_margin,
+                    epsilon=p.epsilon,
+                    sigma_max=p.sigma_max,
+                    strict=p.filtered,
+                )
             )
         evasion = None
         if not self.config.is_leader:
@@ -132,7 +153,7 @@ class Controller:
                 safety_margin=p.safety_margin,
                 epsilon=p.epsilon,
             )
-        memory = Memory(memory.heading, evasion, bid, agreed)
+        memory = Memory(memory.heading, evasion, bid, agreed, memory.target, memory.busy)
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
             agent_id=self.config.agent_id,
@@ -153,26 +174,57 @@ class Controller:
         ``neighbours`` maps id to the state announced this tick; a neighbour that is missing
         (gone) or evading (Ω_j = 1) is not followed this tick.
         """
-        cfg = self.config
+        cfg, p = self.config, self.params
+        evasion, target, lag = memory.evasion, memory.target, 0.0
         if cfg.path is not None:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
-            v = self._follow(memory, sensing, neighbours)
+            v, evasion, target, lag = self._follow(memory, sensing, neighbours)
+        out = tuple(float(c) for c in v)
+        filtered = False
+        if p.filtered:
+            result = safe_velocity(
+                out,
+                sensing,
+                cfg.agent_id,
+                dt=cfg.dt,
+                margin=p.safety_margin,
+                half_separation=p.separation / 2.0,
+                speed_limit=p.speed_limit,
+            )
+            if result.active:
+                out, filtered = result.velocity, True
+                v = np.asarray(out, dtype=np.float64)
         bids = [neighbours[j].bid for j in cfg.talks_to if j in neighbours]
+        busy = 0
+        if p.filtered and (evasion is not None or filtered or lag > self.busy_error):
+            busy = memory.busy + 1
         memory = Memory(
             heading=memory.heading + self.smoothing * (v - memory.heading),
-            evasion=memory.evasion,
+            evasion=evasion,
             bid=consensus_round(memory.bid, bids),
             sigma_consensus=memory.sigma_consensus,
+            target=target,
+            busy=busy,
         )
-        command = Command(
-            agent_id=cfg.agent_id, tick=sensing.tick, velocity=tuple(float(c) for c in v)
-        )
+        command = Command(agent_id=cfg.agent_id, tick=sensing.tick, velocity=out, filtered=filtered)
         return memory, command
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]
-    ) -> FloatArray:
+    ) -> tuple[FloatArray, Evasion | None, FloatArray | None, float]:
+        """The nominal v̂_i of a follower, the evasion to carry into the next tick, (with the
+        safety filter) the plain law's set-point s_i − e_i/deg_i, where (1) without u^o pulls
+        the agent, and how far that is per coordinate, ‖e_i‖∞/deg_i (m; 0 without neighbours).
+
+        With the safety filter an episode also ends once neither the agent's heading (the ray
+        of (11)) nor the straight way to that set-point comes within the obstacle's guard
+        r_j + ρ + ε: an agent of a formation that has stopped has no heading, and (11)'s
+        hold-on, which lasts until the obstacle is passed along the heading, kept it off its
+        slot, and its neighbours' edges to it dropped, for good (docs/safety.md, liveness).
+        The set-point, not the direction of (1), is tested: near the slot the sign term turns
+        that direction every tick. The paper mode keeps episodes as (11) has them.
+        """
         cfg, p = self.config, self.params
         keep = [k for k, j in enumerate(cfg.senses) if j in neighbours and not neighbours[j].omega]
         sigma, theta = self.shape(sensing.tick, memory.sigma_consensus)
@@ -183,9 +235,23 @@ class Controller:
         error = consensus_error(
             np.asarray(sensing.position, dtype=np.float64), own, positions, theirs[keep]
         )
-        if memory.evasion is not None:
-            error = evasive_error(error, len(keep), memory.evasion.offset)
-        return velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)
+        target, lag = None, 0.0
+        if p.filtered and keep:
+            target = np.asarray(sensing.position, dtype=np.float64) - error / len(keep)
+            lag = float(np.abs(error).max()) / len(keep)
+        held = memory.evasion
+        if held is not None and target is not None:
+            position = np.asarray(sensing.position, dtype=np.float64)
+            guard = held.radius + p.safety_margin + p.epsilon
+            if (
+                segment_distance(held.centre, position, target) > guard
+                and ray_distance(position, memory.heading, held.centre) > guard
+            ):
+                held = None
+        if held is not None:
+            error = evasive_error(error, len(keep), held.offset)
+        v = velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)
+        return v, held, target, lag
 
 
 def _validate(config: AgentConfig) -> None:
@@ -201,6 +267,11 @@ def _validate(config: AgentConfig) -> None:
     if config.dt <= 0:
         raise ConfigError("dt", f"must be > 0 s, got {config.dt}")
     for name in ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max"):
+        if not getattr(p, name) > 0:
+            raise ConfigError(f"params.{name}", f"must be > 0, got {getattr(p, name)}")
+    if p.safety not in ("filter", "paper"):
+        raise ConfigError("params.safety", f"must be filter or paper, got {p.safety!r}")
+    for name in ("speed_limit", "separation"):
         if not getattr(p, name) > 0:
             raise ConfigError(f"params.{name}", f"must be > 0, got {getattr(p, name)}")
     if p.rounds < 1:

@@ -32,7 +32,7 @@ from bus.types import (
     Waypoints,
 )
 
-SCHEMA = 1
+SCHEMA = 2  # 2: sensing carries nearby agents; commands and ticks the filter flag; safety params
 T = TypeVar("T")
 
 # Error messages show a wire value through this: bounded in length and depth, so that a value
@@ -148,7 +148,7 @@ def _plain_vector(value: Any) -> bool:
     return type(value) is list and 2 <= len(value) <= 3 and _finite(*value)
 
 
-_SENSING_FIELDS = itemgetter("tick", "pos", "oid", "oc", "or")
+_SENSING_FIELDS = itemgetter("tick", "pos", "oid", "oc", "or", "aid", "ap")
 _STATE_FIELDS = itemgetter("id", "tick", "pos", "omega", "bid", "sigma", "theta")
 
 
@@ -170,6 +170,8 @@ def encode_sensing(s: Sensing) -> bytes:
             "oid": list(s.obstacle_ids),
             "oc": [list(c) for c in s.obstacle_centres],
             "or": list(s.obstacle_radii),
+            "aid": list(s.agent_ids),
+            "ap": [list(p) for p in s.agent_positions],
         },
     )
 
@@ -185,10 +187,15 @@ def decode_sensing(data: bytes) -> Sensing:
         obstacle_ids=_get(m, "oid", _ints),
         obstacle_centres=_get(m, "oc", _vectors),
         obstacle_radii=_get(m, "or", _floats),
+        agent_ids=_get(m, "aid", _ints),
+        agent_positions=_get(m, "ap", _vectors),
     )
     if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
         raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
+    if len(s.agent_ids) != len(s.agent_positions):
+        raise DecodeError("sensing: agent ids and positions differ in length")
     _same_dim(len(s.position), s.obstacle_centres, "sensing.oc")
+    _same_dim(len(s.position), s.agent_positions, "sensing.ap")
     return s
 
 
@@ -196,7 +203,7 @@ def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
     """The common case in one pass: every field present with its exact wire type (as the
     encoder writes it); anything else (None) goes through the field-by-field checks."""
     try:
-        t, pos, oid, oc, radii = _SENSING_FIELDS(m)
+        t, pos, oid, oc, radii, aid, ap = _SENSING_FIELDS(m)
     except KeyError:
         return None
     if not (
@@ -207,15 +214,21 @@ def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
         and type(radii) is list
         and len(oid) == len(oc) == len(radii)
         and _finite(*radii)
+        and type(aid) is list
+        and type(ap) is list
+        and len(aid) == len(ap)
     ):
         return None
-    for i in oid:
+    for i in (*oid, *aid):
         if type(i) is not int:
             return None
-    for c in oc:
+    for c in (*oc, *ap):
         if not _plain_vector(c) or len(c) != len(pos):
             return None
-    return Sensing(t, tuple(pos), tuple(oid), tuple(map(tuple, oc)), tuple(radii))
+    return Sensing(
+        t, tuple(pos), tuple(oid), tuple(map(tuple, oc)), tuple(radii), tuple(aid),
+        tuple(map(tuple, ap)),
+    )  # fmt: skip
 
 
 # -- agent → neighbours -------------------------------------------------------------------------
@@ -268,7 +281,9 @@ def decode_state(data: bytes) -> AgentState:
 
 def encode_report(state: AgentState, command: Command) -> bytes:
     """The command of a tick, carrying what the agent announced that tick (for the record)."""
-    return _pack("cmd", {**_state_body(state), "vel": list(command.velocity)})
+    return _pack(
+        "cmd", {**_state_body(state), "vel": list(command.velocity), "flt": command.filtered}
+    )
 
 
 def decode_report(data: bytes) -> tuple[AgentState, Command]:
@@ -277,7 +292,9 @@ def decode_report(data: bytes) -> tuple[AgentState, Command]:
     vel: Any = m.get("vel")
     velocity = tuple(vel) if _plain_vector(vel) else _get(m, "vel", _vector)
     _same_dim(len(state.position), (velocity,), "cmd.vel")
-    command = Command(state.agent_id, state.tick, velocity)
+    flt: Any = m.get("flt")
+    filtered = flt if type(flt) is bool else _get(m, "flt", _bool)
+    command = Command(state.agent_id, state.tick, velocity, filtered)
     return state, command
 
 
@@ -332,8 +349,9 @@ def _path_vectors(p: PathSpec | None) -> tuple[Vector, ...]:
 
 _PARAMS = (
     "alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "safety_margin",
-    "heading_tau", "sigma_max", "boundary_layer",
+    "heading_tau", "sigma_max", "boundary_layer", "speed_limit", "separation",
 )  # fmt: skip
+SAFETY_MODES = ("filter", "paper")
 
 
 CLOCKS = ("lockstep", "realtime")
@@ -349,7 +367,11 @@ def encode_config(c: AgentConfig, *, clock: str = "lockstep") -> bytes:
             "id": c.agent_id,
             "dim": c.dim,
             "dt": c.dt,
-            "params": {**{k: getattr(p, k) for k in _PARAMS}, "rounds": p.rounds},
+            "params": {
+                **{k: getattr(p, k) for k in _PARAMS},
+                "rounds": p.rounds,
+                "safety": p.safety,
+            },
             "senses": list(c.senses),
             "talks_to": list(c.talks_to),
             "offset": list(c.offset),
@@ -372,9 +394,13 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, str]:
     if clock not in CLOCKS:
         raise DecodeError(f"config.clock: {clock!r} is not one of {', '.join(CLOCKS)}")
     pm = _get(m, "params", _map)
+    safety = _get(pm, "safety", _str)
+    if safety not in SAFETY_MODES:
+        raise DecodeError(f"config.params.safety: {safety!r} is not one of filter, paper")
     params = ControlParams(
         **{k: _get(pm, k, _float) for k in _PARAMS},
         rounds=_get(pm, "rounds", _int),
+        safety=safety,
     )
     reshapes = []
     for r in _get(m, "reshapes", _list):
@@ -426,6 +452,7 @@ def encode_tick(t: TickRecord) -> bytes:
             "sigma": list(t.sigma),
             "theta": list(t.theta),
             "alive": list(t.alive),
+            "flt": list(t.filtered),
         },
     )
 
@@ -441,9 +468,11 @@ def decode_tick(data: bytes) -> TickRecord:
         sigma=_get(m, "sigma", _floats),
         theta=_get(m, "theta", _floats),
         alive=_get(m, "alive", _bools),
+        filtered=_get(m, "flt", _bools),
     )
     n = len(t.positions)
-    if any(len(x) != n for x in (t.velocities, t.omega, t.bid, t.sigma, t.theta, t.alive)):
+    per_agent = (t.velocities, t.omega, t.bid, t.sigma, t.theta, t.alive, t.filtered)
+    if any(len(x) != n for x in per_agent):
         raise DecodeError("tick: per-agent fields differ in length")
     if n:
         _same_dim(len(t.positions[0]), (*t.positions, *t.velocities), "tick.pos")

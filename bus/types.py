@@ -18,6 +18,10 @@ class ControlParams:
     """Gains and thresholds of the paper's control laws, shared by every agent of a run.
 
     alpha, beta : gains of law (1), 1/s and m/s; finite-time convergence needs |f| < beta.
+    safety : "filter" (the nominal law, capped at ``speed_limit`` and projected by the safety
+        filter, bus/safety.py) or "paper" (the paper's Algorithm 2 alone, unfiltered).
+    speed_limit : v_max, m/s; the nominal velocity is capped at it before filtering.
+    separation : 2R, m; the distance the safety filter keeps between any two agents.
     sensing_radius : d, m; an obstacle whose centre is within d of an agent is sensed.
     trigger_radius : d̄ < d, m; the collision-course flag (11) only fires within d̄.
     epsilon : ε, m; tolerance of the ray test in (11).
@@ -38,6 +42,13 @@ class ControlParams:
     sigma_max: float
     rounds: int
     boundary_layer: float = 0.0
+    safety: str = "filter"
+    speed_limit: float = 1e9
+    separation: float = 0.4
+
+    @property
+    def filtered(self) -> bool:
+        return self.safety == "filter"
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,6 +120,8 @@ class Sensing:
     """World → agent at the start of tick ``tick``: where the agent is and what it senses.
 
     obstacle_centres : (m, dim) metres; obstacle_radii : (m,) metres, in obstacle-id order.
+    agent_ids, agent_positions : the other agents within the sensing radius and where they are
+        at the start of this same tick, (q, dim) metres, in id order (the safety filter's rows).
     """
 
     tick: int
@@ -116,6 +129,8 @@ class Sensing:
     obstacle_ids: tuple[int, ...]
     obstacle_centres: tuple[Vector, ...]
     obstacle_radii: tuple[float, ...]
+    agent_ids: tuple[int, ...] = ()
+    agent_positions: tuple[Vector, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,11 +150,13 @@ class AgentState:
 
 @dataclass(frozen=True, slots=True)
 class Command:
-    """Agent → world: the velocity v_i (m/s) to hold during tick ``tick``."""
+    """Agent → world: the velocity v_i (m/s) to hold during tick ``tick``; ``filtered``: the
+    agent's safety filter changed its nominal velocity to get it."""
 
     agent_id: int
     tick: int
     velocity: Vector
+    filtered: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,7 +165,8 @@ class TickRecord:
 
     positions (n, dim) m at the start of the tick and velocities (n, dim) m/s held during it, as
     nested tuples in agent-id order; omega, bid, sigma, theta as each agent announced them; alive
-    False for an agent the world holds still because its process is gone.
+    False for an agent the world holds still because its process is gone; filtered True where
+    the agent's safety filter changed its nominal velocity that tick.
     """
 
     tick: int
@@ -159,6 +177,7 @@ class TickRecord:
     sigma: tuple[float, ...]
     theta: tuple[float, ...]
     alive: tuple[bool, ...]
+    filtered: tuple[bool, ...]
 
 
 @dataclass(frozen=True, slots=True)

@@ -156,6 +156,7 @@ def reference_log(text: str, *, gone: int | None = None) -> RunLog:
             sigma=tuple(s.sigma for s in t.states),
             theta=tuple(s.theta for s in t.states),
             alive=alive,
+            filtered=t.filtered,
         )
         ticks.append((T0 + (t.tick + 1) * LOG_STEP, record))
     finished = Event(scenario.steps, 2, 0, "run finished; 0 bad messages dropped")

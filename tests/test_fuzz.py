@@ -220,12 +220,16 @@ def valid_object(p: Pick, kind: str) -> Any:
     dim = p.choice([2, 3])
     if kind == "sensing":
         m = p.between(0, 4)
+        q = p.between(0, 4)
         return Sensing(wire_int(p), vec(p, dim), tuple(wire_int(p) for _ in range(m)),
-                       vecs(p, dim, m), tuple(p.finite() for _ in range(m)))  # fmt: skip
+                       vecs(p, dim, m), tuple(p.finite() for _ in range(m)),
+                       tuple(wire_int(p) for _ in range(q)), vecs(p, dim, q))  # fmt: skip
     if kind in ("state", "cmd"):
         s = AgentState(wire_int(p), wire_int(p), vec(p, dim), p.choice([False, True]),
                        p.finite(), p.finite(), p.finite())  # fmt: skip
-        return s if kind == "state" else (s, Command(s.agent_id, s.tick, vec(p, dim)))
+        if kind == "state":
+            return s
+        return s, Command(s.agent_id, s.tick, vec(p, dim), p.choice([False, True]))
     if kind == "config":
         m = p.between(0, 4)
         path = p.choice(["none", "waypoints", "sinusoid"])
@@ -239,7 +243,11 @@ def valid_object(p: Pick, kind: str) -> Any:
             agent_id=wire_int(p),
             dim=dim,
             dt=p.finite(),
-            params=ControlParams(**{k: p.finite() for k in _PARAMS}, rounds=wire_int(p)),
+            params=ControlParams(
+                **{k: p.finite() for k in _PARAMS},
+                rounds=wire_int(p),
+                safety=p.choice(list(codec.SAFETY_MODES)),
+            ),
             senses=tuple(wire_int(p) for _ in range(m)),
             talks_to=tuple(wire_int(p) for _ in range(p.between(0, 4))),
             offset=vec(p, dim),
@@ -258,6 +266,7 @@ def valid_object(p: Pick, kind: str) -> Any:
             tuple(p.choice([False, True]) for _ in range(n)),
             tuple(p.finite() for _ in range(n)), tuple(p.finite() for _ in range(n)),
             tuple(p.finite() for _ in range(n)), tuple(p.choice([False, True]) for _ in range(n)),
+            tuple(p.choice([False, True]) for _ in range(n)),
         )  # fmt: skip
     if kind == "event":
         return Event(wire_int(p), wire_int(p), wire_int(p), p.string(40))
@@ -347,7 +356,7 @@ def _valid_path(p: Any, dim: int) -> None:
 
 
 _PARAMS = ["alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "safety_margin",
-           "heading_tau", "sigma_max", "boundary_layer"]  # fmt: skip
+           "heading_tau", "sigma_max", "boundary_layer", "speed_limit", "separation"]  # fmt: skip
 
 
 def assert_valid(kind: str, obj: Any) -> None:
@@ -360,6 +369,9 @@ def assert_valid(kind: str, obj: Any) -> None:
         _each(obj.obstacle_centres, lambda v: _vector(v, dim))
         _each(obj.obstacle_radii, _finite)
         assert len(obj.obstacle_ids) == len(obj.obstacle_centres) == len(obj.obstacle_radii)
+        _each(obj.agent_ids, _integer)
+        _each(obj.agent_positions, lambda v: _vector(v, dim))
+        assert len(obj.agent_ids) == len(obj.agent_positions)
     elif kind == "state":
         _valid_state(obj)
     elif kind == "cmd":
@@ -368,6 +380,7 @@ def assert_valid(kind: str, obj: Any) -> None:
         assert type(command) is Command
         assert (command.agent_id, command.tick) == (state.agent_id, state.tick)
         _vector(command.velocity, dim)
+        assert type(command.filtered) is bool
     elif kind == "config":
         config, clock = obj
         assert clock in codec.CLOCKS
@@ -375,6 +388,7 @@ def assert_valid(kind: str, obj: Any) -> None:
         assert type(config.params) is ControlParams
         for name in _PARAMS:
             _finite(getattr(config.params, name))
+        assert config.params.safety in codec.SAFETY_MODES
         for x in (config.params.rounds, config.agent_id):
             _integer(x)
         _finite(config.dt)
@@ -395,10 +409,13 @@ def assert_valid(kind: str, obj: Any) -> None:
         _integer(obj.tick)
         n = len(obj.positions)
         assert len({_vector(v) for v in (*obj.positions, *obj.velocities)}) <= 1, obj
-        for column in (obj.velocities, obj.omega, obj.bid, obj.sigma, obj.theta, obj.alive):
+        columns = (obj.velocities, obj.omega, obj.bid, obj.sigma, obj.theta, obj.alive,
+                   obj.filtered)  # fmt: skip
+        for column in columns:
             assert type(column) is tuple and len(column) == n
         _each(obj.omega, _boolean)
         _each(obj.alive, _boolean)
+        _each(obj.filtered, _boolean)
         for column in (obj.bid, obj.sigma, obj.theta):
             _each(column, _finite)
     elif kind == "event":
@@ -595,7 +612,7 @@ _SEEDS: dict[str, Any] = {
         "lockstep",
     ),
     "tick": TickRecord(9, ((0.1, 0.2),) * 2, ((1.0, 0.0),) * 2, (False, True), (1.0, 4.0),
-                       (1.0, 1.0), (0.0, 0.0), (True, False)),
+                       (1.0, 1.0), (0.0, 0.0), (True, False), (False, True)),
     "event": Event(3, 3, 2, "agent 2 gone"),
     "summary": {"scenario": "x", "steps": 10, "min_clearance": None, "convergence_bound": math.inf},
     "scenario": {"name": "x", "yaml": "dt: 0.01\n"},
@@ -692,7 +709,8 @@ def _found() -> dict[str, tuple[str, bytes, str]]:
     return {  # what each decoder once let through (docs/fuzzing.md): kind, payload, refusal
         "v nested 1,020 deep": ("state", _raw_map({"v": _deep(1020), "k": pack("state")}),
                                 "schema version"),
-        "k nested 1,020 deep": ("cmd", _raw_map({"v": pack(1), "k": _deep(1020)}), "got kind"),
+        "k nested 1,020 deep": ("cmd", _raw_map({"v": pack(codec.SCHEMA), "k": _deep(1020)}),
+                                "got kind"),
         "path type nested": ("config", _raw_map({**packed, "path": _raw_map(
             {"type": _deep(1020)})}), "unknown path type"),
         "v 1.0": ("event", _with("event", v=1.0), "schema version"),

@@ -77,6 +77,7 @@ def test_passage_contracts_by_consensus_and_expands_after() -> None:
             bid=np.zeros((0, scenario.n)),
             sigma=np.zeros((0, scenario.n)),
             theta=np.zeros((0, scenario.n)),
+            filtered=np.zeros((0, scenario.n), dtype=bool),
         )
     )[0]
     assert np.abs(pair_distances(traj)[-1] - nominal).max() <= 2 * scenario.tolerance

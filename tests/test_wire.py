@@ -55,15 +55,16 @@ def test_states_and_reports_round_trip_bit_for_bit(
 ) -> None:
     s = AgentState(4, tick, pos, omega, bid, 2.0, -0.5)
     assert codec.decode_state(codec.encode_state(s)) == s
-    c = Command(4, tick, (pos[1], pos[0]))
+    c = Command(4, tick, (pos[1], pos[0]), filtered=omega)
     assert codec.decode_report(codec.encode_report(s, c)) == (s, c)
 
 
 def test_sensing_tick_event_and_documents_round_trip() -> None:
-    sensing = Sensing(5, (1.0, 2.0), (0, 3), ((4.0, 5.0), (6.0, 7.0)), (1.0, 0.5))
+    sensing = Sensing(5, (1.0, 2.0), (0, 3), ((4.0, 5.0), (6.0, 7.0)), (1.0, 0.5),
+                      (2, 4), ((1.5, 2.0), (0.0, -1.0)))  # fmt: skip
     assert codec.decode_sensing(codec.encode_sensing(sensing)) == sensing
     rec = TickRecord(9, ((0.1, 0.2),) * 2, ((1.0, 0.0),) * 2, (False, True), (1.0, 4.0),
-                     (1.0, 1.0), (0.0, 0.0), (True, False))  # fmt: skip
+                     (1.0, 1.0), (0.0, 0.0), (True, False), (False, True))  # fmt: skip
     assert codec.decode_tick(codec.encode_tick(rec)) == rec
     ev = Event(3, 3, 2, "agent 2 gone")
     assert codec.decode_event(codec.encode_event(ev)) == ev
@@ -72,7 +73,7 @@ def test_sensing_tick_event_and_documents_round_trip() -> None:
 
 
 def _state(**change: Any) -> bytes:
-    body = {"v": 1, "k": "state", "id": 2, "tick": 5, "pos": [1.0, 2.0], "omega": False,
+    body = {"v": codec.SCHEMA, "k": "state", "id": 2, "tick": 5, "pos": [1.0, 2.0], "omega": False,
             "bid": 1.0, "sigma": 1.0, "theta": 0.0}  # fmt: skip
     body.update(change)
     return bytes(msgpack.packb({k: v for k, v in body.items() if v is not ...}))
@@ -83,7 +84,7 @@ def _state(**change: Any) -> bytes:
     [
         (b"\xc1", "not msgpack"),
         (msgpack.packb([1, 2]), "expected a map"),
-        (_state(v=2), "schema version 2"),
+        (_state(v=codec.SCHEMA + 1), f"schema version {codec.SCHEMA + 1}"),
         (_state(k="cmd"), "expected a state message"),
         (_state(id="two"), "state.id: expected an integer"),
         (_state(id=True), "state.id: expected an integer"),

@@ -50,7 +50,7 @@ def message_sizes(scenario: Scenario) -> dict[str, int]:
     pos = (1.2345678901234567,) * dim
     state = AgentState(1, 123, pos, False, 1.0, 1.0, 0.0)
     tick = TickRecord(123, (pos,) * n, (pos,) * n, (False,) * n, (1.0,) * n, (1.0,) * n,
-                      (0.0,) * n, (True,) * n)  # fmt: skip
+                      (0.0,) * n, (True,) * n, (False,) * n)  # fmt: skip
     return {
         "sensing": len(codec.encode_sensing(Sensing(123, pos, (), (), ()))),
         "state": len(codec.encode_state(state)),

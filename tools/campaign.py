@@ -8,7 +8,9 @@ broken). An inside field that collides falsifies the guarantee; an outside one i
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import itertools
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -63,10 +65,20 @@ class Outcome:
     seconds: float
     error: str | None = None
     source: str = ""
+    safety: str = "filter"
+    filter_activity: float = 0.0
+    stalls: int = 0
+    longest_stall: float = 0.0
+    leader_reached: bool = True
 
     @property
     def collided(self) -> bool:
         return self.obstacle_collisions + self.agent_collisions > 0
+
+    @property
+    def set_name(self) -> str:
+        """The set it is reported in: its mode, with ``/paper`` for the unfiltered runs."""
+        return self.mode if self.safety == "filter" else f"{self.mode}/paper"
 
 
 @functools.lru_cache(maxsize=4)
@@ -108,6 +120,11 @@ def measure(
         assumption2_violations=summary.assumption2_violations,
         seconds=seconds,
         source=field.source if summary.collisions else "",
+        safety=summary.safety,
+        filter_activity=summary.filter_activity,
+        stalls=summary.stalls,
+        longest_stall=summary.longest_stall,
+        leader_reached=summary.leader_shortfall <= summary.tolerance,
     )
 
 
@@ -131,18 +148,28 @@ def run_task(task: Task) -> Outcome:
 def _failed(task: Task, error: str) -> Outcome:
     return Outcome(
         task.mode, task.seed, "", 0, 0, 0, math.nan, math.nan, None, math.nan, math.nan,
-        math.nan, math.nan, False, 0, 0, 0.0, error=error,
+        math.nan, math.nan, False, 0, 0, 0.0, error=error, safety=task.options.safety or "filter",
     )  # fmt: skip
 
 
 def tasks(
-    base: Scenario, seed: int, fields: int, outside: int, options: FieldOptions
+    base: Scenario,
+    seed: int,
+    fields: int,
+    outside: int,
+    options: FieldOptions,
+    safety: Sequence[str] = ("filter",),
 ) -> list[Task]:
     """``fields`` inside fields with seeds seed, seed+1, …, then ``outside`` fields per
-    breach with the same seeds."""
-    out = [Task(base.source, base.name, seed + k, "inside", options) for k in range(fields)]
-    for mode in BREACHES if outside else ():
-        out += [Task(base.source, base.name, seed + k, mode, options) for k in range(outside)]
+    breach with the same seeds; each once per ``safety`` mode ("filter", "paper"): the same
+    field, run with and without the safety filter."""
+    out = []
+    for mode in ("inside", *(BREACHES if outside else ())):
+        count = fields if mode == "inside" else outside
+        for k in range(count):
+            for s in safety:
+                opts = dataclasses.replace(options, safety=s)
+                out.append(Task(base.source, base.name, seed + k, mode, opts))
     return out
 
 
@@ -202,6 +229,11 @@ def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
         "a3_broken_by_contraction": sum(o.a3_contracted for o in ran),
         "a2_broken_in_run": sum(o.assumption2_violations > 0 for o in ran),
         "omega_episodes": sum(o.omega_episodes for o in ran),
+        "filter_activity": float(np.mean([o.filter_activity for o in ran])) if ran else 0.0,
+        "stalled_fields": sum(o.stalls > 0 for o in ran),
+        "stalls": sum(o.stalls for o in ran),
+        "longest_stall": max((o.longest_stall for o in ran), default=0.0),
+        "leader_reached": sum(o.leader_reached for o in ran),
         "cpu_s": round(sum(o.seconds for o in ran), 2),
     }
 
@@ -213,22 +245,26 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
     time its fields took (drawing, simulating, measuring), which a loaded machine inflates less.
     """
     sets: dict[str, Any] = {}
-    for mode in ("inside", *BREACHES):
-        chosen = [o for o in outcomes if o.mode == mode]
+    for mode, safety in itertools.product(("inside", *BREACHES), ("filter", "paper")):
+        name = mode if safety == "filter" else f"{mode}/paper"
+        chosen = [o for o in outcomes if o.set_name == name]
         if chosen:
-            sets[mode] = summarize_set(chosen)
+            sets[name] = summarize_set(chosen)
+            sets[name]["safety"] = safety
             if mode != "inside":
                 b = BREACHES[mode]
-                sets[mode]["breaks"] = b.assumption
-                sets[mode]["static"] = b.static
+                sets[name]["breaks"] = b.assumption
+                sets[name]["static"] = b.static
     failures = [
-        {"set": o.mode, "seed": o.seed, "name": o.name, "obstacle_collisions":
+        {"set": o.set_name, "seed": o.seed, "name": o.name, "obstacle_collisions":
          o.obstacle_collisions, "agent_collisions": o.agent_collisions,
          "min_clearance": o.min_clearance, "min_interagent_distance": o.min_interagent_distance,
          "rerun": "campaign --rerun" if o.mode in REFUSED else "simulate"}
         for o in outcomes if o.error is None and o.collided
     ]  # fmt: skip
-    errors = [{"set": o.mode, "seed": o.seed, "error": o.error} for o in outcomes if o.error]
+    for f, o in zip(failures, [o for o in outcomes if o.error is None and o.collided], strict=True):
+        f["safety"] = o.safety
+    errors = [{"set": o.set_name, "seed": o.seed, "error": o.error} for o in outcomes if o.error]
     return {
         "fields": len(outcomes),
         "jobs": jobs,
@@ -241,13 +277,18 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
     }
 
 
+def saved_stem(name: str, safety: str) -> str:
+    """The file name (without .yaml) a failing field is saved under."""
+    return name if safety == "filter" else f"{name}-paper"
+
+
 def save_failures(outcomes: Iterable[Outcome], directory: Path) -> list[Path]:
     """Write every field that collided as ``DIR/<name>.yaml``; its header says how to rerun."""
     directory.mkdir(parents=True, exist_ok=True)
     written = []
     for o in outcomes:
         if o.error is None and o.collided:
-            path = directory / f"{o.name}.yaml"
+            path = directory / f"{saved_stem(o.name, o.safety)}.yaml"
             path.write_text(o.source, encoding="utf-8")
             written.append(path)
     return written
@@ -260,31 +301,43 @@ def _num(value: Any, digits: int = 3) -> str:
 def render(rep: dict[str, Any]) -> str:
     """Two tables a person reads: safety, then convergence and what the runs went through."""
     safety = [
-        f"{'set':<7} {'fields':>6} {'collided':>8} {'obstacle':>8} {'agent':>5}   "
+        f"{'set':<12} {'fields':>6} {'collided':>8} {'obstacle':>8} {'agent':>5}   "
         f"{'clearance min':>13} {'p01':>7} {'p05':>7} {'p50':>7}   {'separation min':>14}"
     ]
     runs = [
-        f"{'set':<7} {'converged':>9} {'≤ bound':>7} {'max t/bound':>11} {'settled':>7}   "
+        f"{'set':<12} {'converged':>9} {'≤ bound':>7} {'max t/bound':>11} {'settled':>7}   "
         f"{'σ > 1':>5} {'A3 by σ':>7} {'A2 in run':>9} {'Ω episodes':>10}"
+    ]
+    liveness = [
+        f"{'set':<12} {'filter active':>13} {'stalled':>7} {'stalls':>6} {'longest':>8}   "
+        f"{'leader at goal':>14}"
     ]
     for mode, s in rep["sets"].items():
         clr = s["min_clearance"]
         safety.append(
-            f"{mode:<7} {s['fields']:>6} {s['collided']:>8} {s['obstacle_collided']:>8} "
+            f"{mode:<12} {s['fields']:>6} {s['collided']:>8} {s['obstacle_collided']:>8} "
             f"{s['agent_collided']:>5}   {_num(clr['min']):>13} {_num(clr['p01']):>7} "
             f"{_num(clr['p05']):>7} {_num(clr['p50']):>7}   "
             f"{_num(s['min_interagent_distance']['min']):>14}"
         )
         runs.append(
-            f"{mode:<7} {s['converged']:>9} {s['converged_within_bound']:>7} "
+            f"{mode:<12} {s['converged']:>9} {s['converged_within_bound']:>7} "
             f"{_num(s['max_time_over_bound']):>11} {s['settled_at_end']:>7}   "
             f"{s['contracted']:>5} {s['a3_broken_by_contraction']:>7} "
             f"{s['a2_broken_in_run']:>9} {s['omega_episodes']:>10}"
         )
-    lines = [*safety, "", *runs, ""]
+        liveness.append(
+            f"{mode:<12} {100 * s['filter_activity']:>12.2f}% {s['stalled_fields']:>7} "
+            f"{s['stalls']:>6} {s['longest_stall']:>7.2f}s   {s['leader_reached']:>14}"
+        )
+    lines = [*safety, "", *runs, "", *liveness, ""]
     for mode, s in rep["sets"].items():
-        if mode != "inside":
-            lines.append(f"{mode:<7} breaks {s['breaks']}: {BREACHES[mode].what}")
+        if mode != "inside" and s["safety"] == "filter":
+            lines.append(f"{mode:<12} breaks {s['breaks']}: {BREACHES[mode].what}")
+    lines.append(
+        "settled: back in formation (error ≤ tolerance) at the end of the tail; stalled: fields "
+        "where an agent was held by the filter > 0.5 s; /paper: the same fields, filter off"
+    )
     lines.append(
         f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "
         f"({rep['fields_per_s']} fields/s; {rep['cpu_s_per_field']} CPU s per field)"

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from tools.campaign import measure, render, report, run_campaign, tasks
+from tools.campaign import measure, render, report, run_campaign, saved_stem, tasks
 from tools.campaign import save_failures as write_failures
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.progress import progress_bar
@@ -45,6 +45,14 @@ def _count(text: str) -> tuple[int, int]:
 @click.option("--spacing", default=0.0, help="Least free distance between obstacles, m.")
 @click.option("--sigma-max", type=float, help="Override σ_max (1: no contraction).")
 @click.option(
+    "--safety",
+    type=click.Choice(["filter", "paper", "both"]),
+    default="filter",
+    show_default=True,
+    help="Run the fields with the safety filter, with Algorithm 2 alone (the paper), or both "
+    "side by side (sets named SET/paper).",
+)
+@click.option(
     "--save-failures",
     type=click.Path(file_okay=False, path_type=Path),
     help="Write every field that collided to this directory as scenario YAML.",
@@ -66,6 +74,7 @@ def campaign(
     obstacles: str,
     spacing: float,
     sigma_max: float | None,
+    safety: str,
     save_failures: Path | None,
     rerun: Path | None,
     as_json: bool,
@@ -74,8 +83,9 @@ def campaign(
 
     Fields inside the paper's assumptions (every load-time check passes) and, with
     --outside, fields that each break one (docs/campaign.md). Reports collisions, clearance
-    and convergence per set. Exit status 1 if any inside field collides: that falsifies the
-    guarantee. Outside collisions are expected data. 2 if a field could not be drawn.
+    and convergence per set, and the filter's activity and stalls. Exit status 1 if any inside
+    field collides: that falsifies the guarantee (with --safety paper, the paper's
+    Corollary 1). Outside collisions are data. 2 if a field could not be drawn.
     """
     if rerun is not None:
         _rerun(rerun, as_json)
@@ -84,7 +94,8 @@ def campaign(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max
     )
     scn = load_for_cli(base)
-    todo = tasks(scn, seed, count, outside_fields if outside else 0, options)
+    modes = ("filter", "paper") if safety == "both" else (safety,)
+    todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
     start = time.perf_counter()
     with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
         outcomes = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
@@ -92,13 +103,13 @@ def campaign(
     if save_failures is not None:
         written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
         for failure in rep["failures"]:
-            failure["file"] = written.get(failure["name"])
+            failure["file"] = written.get(saved_stem(failure["name"], failure["safety"]))
     click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
-    _exit_status(rep, save_failures)
+    _exit_status(rep, save_failures, "inside/paper" if safety == "paper" else "inside")
 
 
-def _exit_status(rep: dict[str, Any], saved: Path | None) -> None:
-    inside = [f for f in rep["failures"] if f["set"] == "inside"]
+def _exit_status(rep: dict[str, Any], saved: Path | None, judged: str) -> None:
+    inside = [f for f in rep["failures"] if f["set"] == judged]
     if inside:
         names = ", ".join(f["name"] for f in inside[:10]) + (" …" if len(inside) > 10 else "")
         where = f"saved in {saved}" if saved else "rerun with --save-failures DIR to keep them"

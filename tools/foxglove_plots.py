@@ -125,17 +125,7 @@ TOPICS = {
 def trajectory_of(records: Sequence[TickRecord], dt: float) -> Trajectory:
     """The records as a Trajectory (world/metrics.py's input); the row after the last record is
     integrated as the world does."""
-    positions = np.asarray([r.positions for r in records], dtype=np.float64)
-    velocities = np.asarray([r.velocities for r in records], dtype=np.float64)
-    return Trajectory(
-        dt=dt,
-        positions=np.concatenate([positions, (positions[-1] + dt * velocities[-1])[None]]),
-        velocities=velocities,
-        omega=np.asarray([r.omega for r in records], dtype=bool),
-        bid=np.asarray([r.bid for r in records], dtype=np.float64),
-        sigma=np.asarray([r.sigma for r in records], dtype=np.float64),
-        theta=np.asarray([r.theta for r in records], dtype=np.float64),
-    )
+    return Trajectory.from_records(records, dt)
 
 
 def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, Json]]:

@@ -6,7 +6,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from mcap.reader import make_reader
 
 from bus import codec
@@ -44,18 +43,7 @@ def read_trajectory(path: Path, *, dt: float) -> Trajectory:
     records = read_ticks(path)
     if not records:
         raise ValueError(f"{path}: no tick records")
-    positions = np.asarray([r.positions for r in records], dtype=np.float64)
-    velocities = np.asarray([r.velocities for r in records], dtype=np.float64)
-    final = positions[-1] + dt * velocities[-1]
-    return Trajectory(
-        dt=dt,
-        positions=np.concatenate([positions, final[None]]),
-        velocities=velocities,
-        omega=np.asarray([r.omega for r in records], dtype=bool),
-        bid=np.asarray([r.bid for r in records], dtype=np.float64),
-        sigma=np.asarray([r.sigma for r in records], dtype=np.float64),
-        theta=np.asarray([r.theta for r in records], dtype=np.float64),
-    )
+    return Trajectory.from_records(records, dt)
 
 
 def read_documents(path: Path) -> dict[str, dict[str, Any]]:

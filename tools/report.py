@@ -37,6 +37,17 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("agreed σ", f"{_fmt(summary['sigma'], '', 3)} (rounds {_fmt(summary['sigma_rounds'])})"),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
+    if summary.get("safety", "filter") == "filter":
+        rows.append(
+            (
+                "safety filter",
+                f"active {100 * summary.get('filter_activity', 0.0):.2f} % of agent-ticks, "
+                f"stalls {_fmt(summary.get('stalls'))} "
+                f"(longest {_fmt(summary.get('longest_stall'), ' s', 2)})",
+            )
+        )
+    else:
+        rows.append(("safety filter", "off (safety: paper, Algorithm 2 alone)"))
     if summary.get("clock") is not None:
         rows.append(
             (

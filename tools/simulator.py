@@ -1,8 +1,9 @@
 """The reference simulator: every agent and the world in one process, in lockstep.
 
-It calls exactly what the distributed run calls: the world's ``sense_all`` and ``integrate``
-and each agent's ``Controller.announce`` / ``Controller.act``, in the same order and on the same
-float64 values, so a lockstep run over Zenoh must reproduce its trajectory bit for bit.
+It calls exactly what the distributed run calls: the world's ``sense_all``, ``actuate`` and
+``integrate`` and each agent's ``Controller.announce`` / ``Controller.act``, in the same order
+and on the same float64 values, so a lockstep run over Zenoh must reproduce its trajectory bit
+for bit.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from agent.controller import Controller
 from bus.geometry import FloatArray
 from bus.types import AgentState
-from world.kinematics import integrate, sense_all
+from world.kinematics import actuate, integrate, sense_all
 from world.scenario import Scenario
 from world.trajectory import Trajectory
 
@@ -25,12 +26,14 @@ Progress = Callable[[int], None]
 @dataclass(frozen=True)
 class Tick:
     """One tick of a run: positions (n, dim) at its start, the states announced, the
-    velocities (n, dim) commanded during it, and the positions it ends at."""
+    velocities (n, dim) held during it (after the world's safety layer, which in lockstep
+    changes nothing), where each agent's filter was active (n,), and the positions it ends at."""
 
     tick: int
     positions: FloatArray
     states: tuple[AgentState, ...]
     velocities: FloatArray
+    filtered: tuple[bool, ...]
     next_positions: FloatArray
 
 
@@ -41,19 +44,24 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     memories = [c.start() for c in controllers]
     centres, radii = scenario.obstacle_centres, scenario.obstacle_radii
     d = scenario.control.sensing_radius
+    params = scenario.params()
     positions = scenario.initial_positions
     for k in range(scenario.steps):
         sensings = sense_all(k, positions, centres, radii, d)
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
-        velocities = np.empty_like(positions)
+        commanded = np.empty_like(positions)
+        filtered = []
         for i, c in enumerate(controllers):
             heard = {j: states[j] for j in c.listens_to}
             memories[i], command = c.act(memories[i], sensings[i], heard)
-            velocities[i] = command.velocity
+            commanded[i] = command.velocity
+            filtered.append(command.filtered)
+        velocities, _ = actuate(sensings, commanded, params, scenario.dt)
         moved = integrate(positions, velocities, scenario.dt)
-        yield Tick(k, positions, tuple(states[i + 1] for i in range(n)), velocities, moved)
+        ordered = tuple(states[i + 1] for i in range(n))
+        yield Tick(k, positions, ordered, velocities, tuple(filtered), moved)
         positions = moved
 
 
@@ -63,12 +71,14 @@ def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Traject
     positions = np.empty((steps + 1, n, dim))
     velocities = np.empty((steps, n, dim))
     omega = np.zeros((steps, n), dtype=bool)
+    filtered = np.zeros((steps, n), dtype=bool)
     bid, sigma, theta = (np.empty((steps, n)) for _ in range(3))
     positions[0] = scenario.initial_positions
     for t in run(scenario):
         k = t.tick
         velocities[k] = t.velocities
         positions[k + 1] = t.next_positions
+        filtered[k] = t.filtered
         for i, s in enumerate(t.states):
             omega[k, i], bid[k, i], sigma[k, i], theta[k, i] = s.omega, s.bid, s.sigma, s.theta
         if progress is not None:
@@ -81,4 +91,5 @@ def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Traject
         bid=bid,
         sigma=sigma,
         theta=theta,
+        filtered=filtered,
     )

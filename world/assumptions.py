@@ -8,6 +8,11 @@ Assumption 2: an evading agent always keeps a non-evading neighbour. Which agent
 Assumption 3: desired inter-agent distances exceed 2 r_max (under every demanded scale).
 Assumption 4: the leader's path clears every obstacle by its guard radius r_j + ρ.
 Theorem 1 needs |f| < β per coordinate: a warning, since a run is still meaningful.
+The safety filter's theorem (docs/safety.md), with ``control.safety: filter``: (D) one step at
+    the speed limit cannot reach an unsensed obstacle's guard or an unsensed agent's cell,
+    v_max·dt ≤ min(d − r_max − ρ, (d − 2R)/2); the guard ρ and the separation 2R cover the
+    bodies that count a collision; (F) every agent starts outside every guard circle r_j + ρ
+    and at least 2R from every other agent.
 Assumptions 2 and 3 only matter when there are obstacles to evade and are skipped otherwise.
 """
 
@@ -29,6 +34,7 @@ def check_assumptions(s: Scenario) -> None:
     """Raise the first violated assumption; warn when |f| ≥ β."""
     _obstacles_apart(s)
     _assumption1(s)
+    _safety(s)
     if s.obstacles:
         _assumption2(s)
         _assumption3(s)
@@ -134,10 +140,22 @@ def _closest_on_sinusoid(s: Scenario, centre: FloatArray) -> float:
 
 
 def _obstacles_apart(s: Scenario) -> None:
+    """Obstacles do not overlap (Section 3); with the safety filter their guard circles do not
+    touch either: an agent pressed into the notch where two guards meet has every way out
+    closed by one of the two rows (a pocket narrower than 2ρ), and stays there."""
     centres, radii = s.obstacle_centres, s.obstacle_radii
+    rho = s.control.safety_margin
     for i, j in itertools.combinations(range(len(radii)), 2):
-        if float(np.linalg.norm(centres[i] - centres[j])) <= radii[i] + radii[j]:
+        gap = float(np.linalg.norm(centres[i] - centres[j])) - radii[i] - radii[j]
+        if gap <= 0:
             raise ScenarioError(f"obstacles[{j}]", f"overlaps obstacles[{i}] (Section 3)")
+        if s.control.safety == "filter" and gap <= 2 * rho:
+            raise ScenarioError(
+                f"obstacles[{j}]",
+                f"is {gap:.3g} m from obstacles[{i}], not more than 2ρ = {2 * rho:.3g} m: their "
+                "guard circles meet and an agent can be wedged in the notch between them; "
+                "move them apart or give one obstacle that encloses both",
+            )
 
 
 def _trigger_reach(s: Scenario) -> None:
@@ -153,11 +171,61 @@ def _trigger_reach(s: Scenario) -> None:
 
 def _starts_clear(s: Scenario) -> None:
     centres, radii = s.obstacle_centres, s.obstacle_radii
+    filtered = s.control.safety == "filter"
+    keep = s.control.safety_margin if filtered else s.agent_radius
     for i, pos in enumerate(s.initial_positions):
         dist = np.linalg.norm(centres - pos, axis=1) - radii
-        if (dist <= s.agent_radius).any():
-            o = int(np.argmin(dist))
+        o = int(np.argmin(dist))
+        if dist[o] <= s.agent_radius:
             raise ScenarioError(f"agents[{i}].initial", f"starts inside obstacles[{o}]")
+        if dist[o] < keep:
+            raise ScenarioError(
+                f"agents[{i}].initial",
+                f"starts {dist[o]:.3g} m from the edge of obstacles[{o}], inside its guard "
+                f"circle (ρ = {keep} m): the safety filter needs every agent to start outside",
+            )
+
+
+def _safety(s: Scenario) -> None:
+    """What the safety filter's theorem needs of the scenario (module docstring, (D) and (F))."""
+    c = s.control
+    if c.safety != "filter":
+        return
+    if c.safety_margin < s.agent_radius:
+        raise ScenarioError(
+            "control.safety_margin",
+            f"ρ = {c.safety_margin} m is less than agent_radius = {s.agent_radius} m: the "
+            "filter's guard circles would not keep the agents' bodies off the obstacles",
+        )
+    if s.separation < 2 * s.agent_radius:
+        raise ScenarioError(
+            "control.separation",
+            f"{s.separation} m is less than 2·agent_radius = {2 * s.agent_radius} m: the filter "
+            "would let two agents' bodies touch",
+        )
+    step = s.largest_step
+    if step <= 0:
+        raise ScenarioError(
+            "control.sensing_radius",
+            f"d = {c.sensing_radius} m leaves no safe step: it must exceed r_max + ρ and the "
+            f"separation {s.separation} m, or an agent cannot sense what one step can reach",
+        )
+    if s.speed_limit * s.dt > step * (1 + 1e-12):
+        raise ScenarioError(
+            "control.speed_limit",
+            f"v_max·dt = {s.speed_limit * s.dt:.4g} m exceeds min(d − r_max − ρ, (d − 2R)/2) = "
+            f"{step:.4g} m: one step could reach an obstacle or agent not yet sensed; lower "
+            f"it to at most {step / s.dt:.4g} m/s or raise control.sensing_radius",
+        )
+    starts = s.initial_positions
+    for i, j in itertools.combinations(range(s.n), 2):
+        gap = float(np.linalg.norm(starts[i] - starts[j]))
+        if gap < s.separation:
+            raise ScenarioError(
+                f"agents[{j}].initial",
+                f"agents {i + 1} and {j + 1} start {gap:.3g} m apart, closer than the "
+                f"separation {s.separation} m the safety filter keeps",
+            )
 
 
 def _beta(s: Scenario) -> None:

@@ -112,6 +112,7 @@ class FieldOptions:
         Algorithm 2 alone (the setting of the paper's Corollary 1).
     initial_noise : uniform ± noise of the agents' starts about their slots (per axis).
     tries : candidates drawn per obstacle before giving up with :class:`FieldError`.
+    safety : replaces the base's ``control.safety`` ("filter" or "paper": Algorithm 2 alone).
     """
 
     length: float = 14.0
@@ -124,6 +125,7 @@ class FieldOptions:
     sigma_max: float | None = None
     initial_noise: float = 1.0
     tries: int = 200
+    safety: str | None = None
 
 
 # -- what a field breaks ------------------------------------------------------------------------
@@ -133,6 +135,7 @@ class FieldOptions:
 _CHECKS: dict[str, Callable[[Scenario], None]] = {
     "overlap": assumptions._obstacles_apart,
     "A1": assumptions._assumption1,
+    "safety": assumptions._safety,
 }
 _OBSTACLE_CHECKS: dict[str, Callable[[Scenario], None]] = {
     "A2": assumptions._assumption2,
@@ -346,6 +349,7 @@ def _skeleton(
         "control": {
             **{f.name: getattr(c, f.name) for f in dataclasses.fields(c)},
             **({} if opts.sigma_max is None else {"sigma_max": opts.sigma_max}),
+            **({} if opts.safety is None else {"safety": opts.safety}),
         },
         "graph": {"directed": base.directed, "edges": [list(e) for e in base.edges]},
         "agents": [{"offset": list(a.offset)} for a in base.agents],

@@ -1,13 +1,19 @@
-"""Single-integrator kinematics ṡ_i = v_i and obstacle sensing, as pure functions.
+"""Single-integrator kinematics ṡ_i = v_i, sensing, and the actuator's safety layer, as pure
+functions.
 
 positions, velocities : (n, dim) float64, m and m/s. Obstacles: centres (m, dim), radii (m,), m.
+An agent senses every obstacle whose centre and every other agent that is within the sensing
+radius d of it, with their positions at the start of the same tick.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from bus.types import Sensing
+from bus.safety import safe_velocity
+from bus.types import ControlParams, Sensing
 from world.graph import FloatArray
 
 
@@ -24,21 +30,66 @@ def sense_all(
     sensing_radius: float,
 ) -> list[Sensing]:
     """The world's messages to every agent at the start of ``tick``, agent-id order."""
-    rows = positions.tolist()
+    rows = [tuple(row) for row in positions.tolist()]
+    n = len(rows)
+    apart = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=-1)
+    close = (apart <= sensing_radius) & ~np.eye(n, dtype=bool)
     if centres.shape[0] == 0:
-        return [Sensing(tick, tuple(row), (), (), ()) for row in rows]
-    near = np.linalg.norm(positions[:, None, :] - centres[None, :, :], axis=-1) <= sensing_radius
-    centre_rows, radius_list = centres.tolist(), radii.tolist()
+        near = np.zeros((n, 0), dtype=bool)
+    else:
+        near = np.linalg.norm(positions[:, None, :] - centres[None, :, :], axis=-1)
+        near = near <= sensing_radius
+    centre_rows = [tuple(c) for c in centres.tolist()]
+    radius_list = radii.tolist()
     out = []
     for i, row in enumerate(rows):
         seen = np.flatnonzero(near[i]).tolist()
+        others = np.flatnonzero(close[i]).tolist()
         out.append(
             Sensing(
                 tick=tick,
-                position=tuple(row),
+                position=row,
                 obstacle_ids=tuple(seen),
-                obstacle_centres=tuple(tuple(centre_rows[k]) for k in seen),
+                obstacle_centres=tuple(centre_rows[k] for k in seen),
                 obstacle_radii=tuple(radius_list[k] for k in seen),
+                agent_ids=tuple(q + 1 for q in others),
+                agent_positions=tuple(rows[q] for q in others),
             )
         )
     return out
+
+
+def actuate(
+    sensings: Sequence[Sensing],
+    velocities: FloatArray,
+    params: ControlParams,
+    dt: float,
+) -> tuple[FloatArray, int]:
+    """The velocities the world lets the agents hold this tick, and how many it corrected.
+
+    With ``params.safety == "filter"`` the world applies the agents' own safety filter
+    (bus/safety.py) to each command with the tick's fresh sensing, as a robot's onboard safety
+    layer would. In lockstep every command was computed from exactly this sensing and is
+    already feasible, so it comes back unchanged, bit for bit (0 corrected); in realtime a
+    command computed from an older position is projected again before it moves the agent.
+    ``velocities`` (n, dim) m/s in agent-id order; a row of zeros (an agent held still) is
+    always feasible.
+    """
+    if not params.filtered:
+        return velocities, 0
+    out = velocities.copy()
+    corrected = 0
+    for i, sensing in enumerate(sensings):
+        result = safe_velocity(
+            tuple(velocities[i].tolist()),
+            sensing,
+            i + 1,
+            dt=dt,
+            margin=params.safety_margin,
+            half_separation=params.separation / 2.0,
+            speed_limit=params.speed_limit,
+        )
+        if result.active:
+            out[i] = result.velocity
+            corrected += 1
+    return out, corrected

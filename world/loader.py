@@ -235,15 +235,34 @@ def _list(value: Any, field: str) -> list[Any]:
 # -- sections -----------------------------------------------------------------------------------
 
 
+_SAFETY_MODES = ("filter", "paper")
+
+
 def _control(value: Any) -> Control:
-    data = _mapping(value, "control")
-    _no_unknown(data, set(_CONTROL_DEFAULTS), "control")
+    data = dict(_mapping(value, "control"))
+    _no_unknown(data, {*_CONTROL_DEFAULTS, "safety", "speed_limit", "separation"}, "control")
+    safety = data.pop("safety", "filter")
+    if safety not in _SAFETY_MODES:
+        raise ScenarioError(
+            "control.safety", f"must be one of {', '.join(_SAFETY_MODES)}, got {_shown(safety)}"
+        )
+    speed_limit = data.pop("speed_limit", None)
+    if speed_limit is not None:
+        speed_limit = _positive(speed_limit, "control.speed_limit")
+    separation = data.pop("separation", None)
+    if separation is not None:
+        separation = _positive(separation, "control.separation")
     merged = {**_CONTROL_DEFAULTS, **data}
     for key in ("alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "sigma_max"):
         _positive(merged[key], f"control.{key}")
     for key in ("safety_margin", "heading_tau", "boundary_layer"):
         _non_negative(merged[key], f"control.{key}")
-    c = Control(**{k: float(v) for k, v in merged.items()})
+    c = Control(
+        **{k: float(v) for k, v in merged.items()},
+        safety=safety,
+        speed_limit=speed_limit,
+        separation=separation,
+    )
     if c.trigger_radius >= c.sensing_radius:
         raise ScenarioError(
             "control.trigger_radius",

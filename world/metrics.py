@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from bus.geometry import FloatArray, rotation
-from bus.path import peak_speed
+from bus.path import path_position, peak_speed
 from world.scenario import Scenario
 from world.theory import convergence_bound
 from world.trajectory import Trajectory
@@ -38,9 +38,33 @@ class Summary:
     sigma_rounds: int | None
     omega_episodes: int
     assumption2_violations: int
+    safety: str = "filter"
+    filter_activity: float = 0.0  # fraction of agent-ticks the safety filter changed
+    stalls: int = 0  # times an agent was held by the filter for more than STALL_TIME
+    longest_stall: float = 0.0  # s
+    leader_shortfall: float = 0.0  # m: the leader's final distance from where its path ends
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+# An agent is held by the filter while the filter is active and it moves slower than this, m/s;
+# a hold longer than STALL_TIME, s, is a stall (docs/safety.md, liveness).
+STALL_SPEED = 0.05
+STALL_TIME = 0.5
+
+
+def holds(traj: Trajectory) -> list[float]:
+    """The length, s, of every stretch of consecutive ticks in which some agent was held: its
+    filter active and its speed below STALL_SPEED. Agent by agent, in time order."""
+    speed = np.linalg.norm(traj.velocities, axis=-1)
+    held = traj.filtered & (speed < STALL_SPEED)
+    out: list[float] = []
+    for i in range(held.shape[1]):
+        flags = np.concatenate([[False], held[:, i], [False]]).astype(np.int8)
+        edges = np.flatnonzero(np.diff(flags))
+        out += [float((b - a) * traj.dt) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    return out
 
 
 def formation_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
@@ -147,6 +171,8 @@ def summarize(scenario: Scenario, traj: Trajectory) -> Summary:
         collisions += onsets(clear < scenario.agent_radius)
     pairs = pair_distances(traj)
     collisions += onsets(pairs < 2 * scenario.agent_radius)
+    held = holds(traj)
+    goal = path_position(scenario.path, traj.ticks * traj.dt)
     return Summary(
         scenario=scenario.name,
         agents=scenario.n,
@@ -163,4 +189,9 @@ def summarize(scenario: Scenario, traj: Trajectory) -> Summary:
         sigma_rounds=sigma_rounds(traj.bid, scenario.rounds),
         omega_episodes=onsets(traj.omega),
         assumption2_violations=assumption2_violations(scenario, traj.omega),
+        safety=scenario.control.safety,
+        filter_activity=float(traj.filtered.mean()) if traj.filtered.size else 0.0,
+        stalls=sum(h > STALL_TIME for h in held),
+        longest_stall=max(held, default=0.0),
+        leader_shortfall=float(np.linalg.norm(traj.positions[-1, 0] - goal)),
     )

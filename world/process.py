@@ -26,7 +26,7 @@ from bus.keys import Keys, agent_of
 from bus.links import publisher, still_present, subscribe, watch_presence
 from bus.runtime import Arrival, Inbox, warn
 from bus.types import AgentState, Command, Event, TickRecord
-from world.kinematics import integrate, sense_all
+from world.kinematics import actuate, integrate, sense_all
 from world.metrics import summarize
 from world.scenario import Scenario
 from world.trajectory import Trajectory
@@ -131,8 +131,10 @@ class World:
         centres, radii = s.obstacle_centres, s.obstacle_radii
         positions = s.initial_positions
         history: dict[str, list[Any]] = {
-            name: [] for name in ("pos", "vel", "omega", "bid", "sigma", "theta")
+            name: [] for name in ("pos", "vel", "omega", "bid", "sigma", "theta", "filtered")
         }
+        params = s.params()
+        corrected = 0  # agent-ticks whose command the actuator's safety layer changed
         latest = self.latest
         clock = _Clock(realtime=self.options.clock == "realtime", period=s.dt / self.options.speed)
         for k in range(s.steps):
@@ -149,11 +151,14 @@ class World:
             for i in stale:  # a watchdog, as on a real robot: no fresh command, no motion
                 del reports[i]
             clock.stale_holds += len(stale)
-            row = _record(k, positions, reports, self.alive, s.n, s.dim)
+            commanded = _commanded(reports, s.n, s.dim)
+            velocities, fixed = actuate(sensings, commanded, params, s.dt)
+            corrected += fixed
+            row = _record(k, positions, velocities, reports, self.alive)
             self.tick_out.put(codec.encode_tick(row))
             for name, value in zip(history, _columns(row), strict=True):
                 history[name].append(value)
-            positions = integrate(positions, np.asarray(row.velocities), s.dt)
+            positions = integrate(positions, velocities, s.dt)
             if self.aborted is not None:
                 break
         history["pos"].append(positions)
@@ -165,11 +170,13 @@ class World:
             bid=np.asarray(history["bid"]),
             sigma=np.asarray(history["sigma"]),
             theta=np.asarray(history["theta"]),
+            filtered=np.asarray(history["filtered"], dtype=bool).reshape(-1, s.n),
         )
         summary = {
             **summarize(s, traj).as_dict(),
             **clock.report(s.steps),
             "dropped_messages": self.dropped,
+            "actuator_corrections": corrected,
             "aborted": self.aborted,
         }
         if self.aborted is None:
@@ -290,21 +297,32 @@ class World:
         warn(f"world: {text}")
 
 
+def _commanded(
+    reports: dict[int, tuple[AgentState, Command]], n: int, dim: int
+) -> np.ndarray[Any, Any]:
+    """(n, dim) m/s: each agent's commanded velocity; an agent without a report (gone, or its
+    command too old) stands still."""
+    velocities = np.zeros((n, dim))
+    for i, (_state, command) in reports.items():
+        velocities[i - 1] = command.velocity
+    return velocities
+
+
 def _record(
     k: int,
     positions: np.ndarray[Any, Any],
+    velocities: np.ndarray[Any, Any],
     reports: dict[int, tuple[AgentState, Command]],
     alive: set[int],
-    n: int,
-    dim: int,
 ) -> TickRecord:
-    """The ground truth of tick k: an agent without a report (gone) stands still."""
-    velocities = np.zeros((n, dim))
+    """The ground truth of tick k, with the velocities the agents really hold during it."""
+    n = positions.shape[0]
     omega, bid, sigma, theta = [False] * n, [1.0] * n, [1.0] * n, [0.0] * n
+    filtered = [False] * n
     for i, (state, command) in reports.items():
-        velocities[i - 1] = command.velocity
         omega[i - 1], bid[i - 1] = state.omega, state.bid
         sigma[i - 1], theta[i - 1] = state.sigma, state.theta
+        filtered[i - 1] = command.filtered
     return TickRecord(
         tick=k,
         positions=tuple(map(tuple, positions.tolist())),
@@ -314,11 +332,12 @@ def _record(
         sigma=tuple(sigma),
         theta=tuple(theta),
         alive=tuple(i in alive for i in range(1, n + 1)),
+        filtered=tuple(filtered),
     )
 
 
 def _columns(r: TickRecord) -> tuple[Any, ...]:
-    return (r.positions, r.velocities, r.omega, r.bid, r.sigma, r.theta)
+    return (r.positions, r.velocities, r.omega, r.bid, r.sigma, r.theta, r.filtered)
 
 
 class _Clock:

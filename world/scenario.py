@@ -46,6 +46,9 @@ class Control:
     heading_tau: float
     sigma_max: float
     boundary_layer: float
+    safety: str = "filter"  # or "paper": Algorithm 2 alone, unfiltered
+    speed_limit: float | None = None  # m/s; None: the largest the safety theorem admits
+    separation: float | None = None  # m; None: 2ρ (each agent keeps ρ from the bisector)
 
 
 @dataclass(frozen=True)
@@ -119,6 +122,28 @@ class Scenario:
         """max_i ‖δ_i‖, m: radius of the leader-centred circle enclosing the formation."""
         return float(np.linalg.norm(self.offsets, axis=1).max())
 
+    @property
+    def separation(self) -> float:
+        """2R, m: the distance the safety filter keeps between agents (default 2ρ)."""
+        c = self.control
+        return 2.0 * c.safety_margin if c.separation is None else c.separation
+
+    @property
+    def largest_step(self) -> float:
+        """m: the longest step the safety theorem admits, min(d − r_max − ρ, (d − 2R)/2), so
+        that no obstacle or agent beyond the sensing radius can be reached in one tick."""
+        c = self.control
+        r_max = float(self.obstacle_radii.max()) if self.obstacles else 0.0
+        return min(
+            c.sensing_radius - r_max - c.safety_margin, (c.sensing_radius - self.separation) / 2
+        )
+
+    @property
+    def speed_limit(self) -> float:
+        """v_max, m/s: the control's, or by default the largest the theorem admits."""
+        c = self.control
+        return self.largest_step / self.dt if c.speed_limit is None else c.speed_limit
+
     def params(self) -> ControlParams:
         c = self.control
         return ControlParams(
@@ -132,6 +157,9 @@ class Scenario:
             sigma_max=c.sigma_max,
             rounds=self.rounds,
             boundary_layer=c.boundary_layer,
+            safety=c.safety,
+            speed_limit=self.speed_limit,
+            separation=self.separation,
         )
 
     def agent_config(self, agent_id: int) -> AgentConfig:

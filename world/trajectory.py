@@ -5,6 +5,7 @@ Shapes use T = number of ticks, n = agents, dim = 2 or 3. Tick k covers [k·dt, 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bus.geometry import FloatArray
+from bus.types import TickRecord
 
 
 @dataclass(frozen=True)
@@ -21,6 +23,7 @@ class Trajectory:
     omega : (T, n) bool, Ω_i announced at each tick.
     bid : (T, n), each agent's value in Algorithm 1 as announced at each tick.
     sigma, theta : (T, n), the scale and rotation (rad) each agent applied at each tick.
+    filtered : (T, n) bool, True where the agent's safety filter changed its nominal velocity.
     """
 
     dt: float
@@ -30,6 +33,24 @@ class Trajectory:
     bid: FloatArray
     sigma: FloatArray
     theta: FloatArray
+    filtered: NDArray[np.bool_]
+
+    @classmethod
+    def from_records(cls, records: Sequence[TickRecord], dt: float) -> Trajectory:
+        """The world's tick records (in tick order) as a trajectory; the positions after the
+        last record are integrated exactly as the world does (positions + dt · velocities)."""
+        positions = np.asarray([r.positions for r in records], dtype=np.float64)
+        velocities = np.asarray([r.velocities for r in records], dtype=np.float64)
+        return cls(
+            dt=dt,
+            positions=np.concatenate([positions, (positions[-1] + dt * velocities[-1])[None]]),
+            velocities=velocities,
+            omega=np.asarray([r.omega for r in records], dtype=bool),
+            bid=np.asarray([r.bid for r in records], dtype=np.float64),
+            sigma=np.asarray([r.sigma for r in records], dtype=np.float64),
+            theta=np.asarray([r.theta for r in records], dtype=np.float64),
+            filtered=np.asarray([r.filtered for r in records], dtype=bool),
+        )
 
     @property
     def ticks(self) -> int:
@@ -46,6 +67,7 @@ class Trajectory:
             bid=self.bid,
             sigma=self.sigma,
             theta=self.theta,
+            filtered=self.filtered,
         )
 
     @classmethod
@@ -59,11 +81,12 @@ class Trajectory:
                 bid=z["bid"],
                 sigma=z["sigma"],
                 theta=z["theta"],
+                filtered=z["filtered"],
             )
 
     def equals(self, other: Trajectory) -> bool:
         """Bit-for-bit equality of every array."""
-        names = ("positions", "velocities", "omega", "bid", "sigma", "theta")
+        names = ("positions", "velocities", "omega", "bid", "sigma", "theta", "filtered")
         return self.dt == other.dt and all(
             getattr(self, k).tobytes() == getattr(other, k).tobytes()
             and getattr(self, k).shape == getattr(other, k).shape

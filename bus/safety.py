@@ -1,0 +1,305 @@
+"""The safety filter (docs/safety.md): the velocity nearest the nominal that keeps every step safe.
+
+    v = argmin_u ‖u − v̂‖²   subject to   g_r · u · dt ≥ h_r   for every row r
+
+One row per sensed obstacle (stay outside its guard circle r_j + ρ over the whole step) and one
+per sensed agent (a buffered Voronoi cell: stay R = separation / 2 on your own side of the
+bisector). Every h_r ≤ 0, so u = 0 is feasible for an agent that is currently safe and the
+problem always has a solution. With 2 or 3 unknowns it is solved exactly by enumerating active
+sets of at most ``dim`` rows: no solver, no iteration, the same bits in every process.
+
+It lives in the shared package because two processes run it: the agent filters its own command
+(the theorem's setting), and the world applies the very same function at the actuator with
+fresh positions before it integrates, standing in for a robot's onboard safety layer (in
+lockstep the command is already feasible and comes back unchanged, bit for bit).
+
+All arithmetic is on plain floats: the vectors have 2 or 3 coordinates, where a numpy call costs
+more than the work. Vectors are tuples in metres (positions) or m/s (velocities); dt in s.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from bus.types import Sensing, Vector
+
+# m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
+# only keeps an exactly-on-the-boundary solution from failing its own check.
+TOLERANCE = 1e-12
+# A speed this close above the limit is not capped again: the world re-applies the cap to a
+# command the agent already capped and filtered, whose norm rounding may have moved by an ulp.
+_CAP_SLACK = 1.0 + 1e-12
+# The right-hand rule turns the nominal only when the projection keeps less than this fraction
+# of its speed: the agent is (nearly) stopped against a row, not sliding along one.
+SIDESTEP_BELOW = 0.25
+# A multiplier this far below zero still counts as ≥ 0 (same reason).
+_LAMBDA_TOLERANCE = 1e-12
+
+
+@dataclass(frozen=True, slots=True)
+class Row:
+    """One half-space g · u · dt ≥ h: ``normal`` g a unit (dim,) vector, ``bound`` h ≤ 0, m."""
+
+    normal: Vector
+    bound: float
+
+
+@dataclass(frozen=True, slots=True)
+class Filtered:
+    """The filter's answer: the velocity to hold (m/s), and whether it differs from the nominal
+    (``active``). ``fallback`` is True when no active set passed its checks and the agent is
+    stopped (u = 0, feasible for a safe agent); it is counted, never expected."""
+
+    velocity: Vector
+    active: bool
+    fallback: bool = False
+
+
+def _dot(a: Sequence[float], b: Sequence[float]) -> float:
+    s = 0.0
+    for x, y in zip(a, b, strict=True):
+        s += x * y
+    return s
+
+
+def _unit_away(own: Vector, other: Vector, axis_sign: float) -> tuple[Vector, float]:
+    """(unit vector from ``other`` to ``own``, their distance). For coincident points (a state
+    the filter never leads to) the x axis, signed so that the two ends of a pair get opposite
+    normals."""
+    diff = tuple(a - b for a, b in zip(own, other, strict=True))
+    dist = math.sqrt(_dot(diff, diff))
+    if dist == 0.0:
+        return (axis_sign, *([0.0] * (len(own) - 1))), 0.0
+    return tuple(x / dist for x in diff), dist
+
+
+def obstacle_row(position: Vector, centre: Vector, radius: float, margin: float) -> Row:
+    """The row that keeps the step outside the guard circle ``radius`` + ``margin`` (m).
+
+    D = ‖s − c‖, g = (s − c)/D, h = min(r + ρ, D) − D: the half-space g·(y − c) ≥ r + ρ is
+    tangent to the guard circle at the point nearest the agent, so it lies wholly outside it.
+    """
+    normal, dist = _unit_away(position, centre, 1.0)
+    return Row(normal, min(radius + margin, dist) - dist)
+
+
+def agent_row(position: Vector, other: Vector, half_separation: float, *, lower: bool) -> Row:
+    """The row that keeps the step R = ``half_separation`` (m) on this agent's side of the
+    bisector with ``other``: g = (s_i − s_q)/D, h = min(R, D/2) − D/2. The other agent's row has
+    exactly the opposite normal, so the two add up to ‖y_i − y_q‖ ≥ 2R. ``lower``: this agent
+    has the smaller id (it only matters for coincident positions)."""
+    normal, dist = _unit_away(position, other, 1.0 if lower else -1.0)
+    half = dist / 2.0
+    return Row(normal, min(half_separation, half) - half)
+
+
+def rows_for(
+    sensing: Sensing,
+    agent_id: int,
+    *,
+    margin: float,
+    half_separation: float,
+    reach: float = math.inf,
+) -> list[Row]:
+    """The rows of an agent from its sensing: its obstacles, then its sensed agents.
+
+    ``reach`` (m): only rows whose boundary is nearer than this are built, i.e. obstacles whose
+    guard circle and agents whose cell edge are within ``reach`` of the agent; with reach =
+    ‖v̂‖·dt the others cannot be active (see :func:`project`), so skipping them is exact.
+    """
+    pos = sensing.position
+    rows = []
+    for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii, strict=True):
+        limit = r + margin + reach
+        diff2 = 0.0
+        for a, b in zip(pos, c, strict=True):
+            diff2 += (a - b) * (a - b)
+        if diff2 < limit * limit:
+            rows.append(obstacle_row(pos, c, r, margin))
+    for j, q in zip(sensing.agent_ids, sensing.agent_positions, strict=True):
+        limit = 2.0 * (half_separation + reach)
+        diff2 = 0.0
+        for a, b in zip(pos, q, strict=True):
+            diff2 += (a - b) * (a - b)
+        if diff2 < limit * limit:
+            rows.append(agent_row(pos, q, half_separation, lower=agent_id < j))
+    return rows
+
+
+def satisfies(velocity: Sequence[float], rows: Sequence[Row], dt: float) -> bool:
+    """Every row met by ``velocity`` held for ``dt`` s, within :data:`TOLERANCE` m."""
+    return all(_dot(r.normal, velocity) * dt >= r.bound - TOLERANCE for r in rows)
+
+
+def cap_speed(velocity: Vector, limit: float) -> Vector:
+    """``velocity`` scaled down to the speed ``limit`` (m/s) if it is faster; unchanged if not."""
+    speed = math.sqrt(_dot(velocity, velocity))
+    if speed <= limit * _CAP_SLACK:
+        return velocity
+    k = limit / speed
+    return tuple(x * k for x in velocity)
+
+
+def project(nominal: Vector, rows: Sequence[Row], dt: float) -> Filtered:
+    """The feasible velocity nearest ``nominal`` (m/s) for a step of ``dt`` s.
+
+    A feasible nominal comes back unchanged (the same tuple). Rows that the ball of radius
+    ‖v̂‖ lies inside are dropped first: the projection onto a convex set that holds 0 is never
+    longer than v̂, so they cannot be active. Then every set of at most ``dim`` remaining rows is
+    tried as the active set (KKT: the equality-constrained minimiser, multipliers ≥ 0, every row
+    met); the nearest accepted candidate wins, ties to the first in enumeration order.
+    """
+    speed2 = _dot(nominal, nominal)
+    # A row's boundary lies −h/dt from the origin (‖g‖ = 1); farther than ‖v̂‖: never active.
+    near = [r for r in rows if (r.bound / dt) ** 2 < speed2 or r.bound == 0.0]
+    if satisfies(nominal, near, dt):
+        return Filtered(nominal, active=False)
+    dim = len(nominal)
+    best: Vector | None = None
+    best_dist = math.inf
+    for size in range(1, min(dim, len(near)) + 1):
+        for chosen in itertools.combinations(near, size):
+            candidate = _on_planes(nominal, chosen, dt)
+            if candidate is None or not satisfies(candidate, near, dt):
+                continue
+            change = tuple(a - b for a, b in zip(candidate, nominal, strict=True))
+            dist = _dot(change, change)
+            if dist < best_dist:
+                best, best_dist = candidate, dist
+    if best is None:
+        return Filtered(tuple(0.0 for _ in nominal), active=True, fallback=True)
+    return Filtered(best, active=True)
+
+
+def _on_planes(nominal: Vector, chosen: Sequence[Row], dt: float) -> Vector | None:
+    """The point nearest ``nominal`` on the planes g·u = h/dt of ``chosen``: u = v̂ + Gᵀλ with
+    (G Gᵀ) λ = h/dt − G v̂; None when the normals are dependent or some λ < 0 (not a KKT point)."""
+    gram = [[_dot(a.normal, b.normal) for b in chosen] for a in chosen]
+    rhs = [r.bound / dt - _dot(r.normal, nominal) for r in chosen]
+    lam = _solve(gram, rhs)
+    if lam is None or min(lam) < -_LAMBDA_TOLERANCE:
+        return None
+    out = list(nominal)
+    for weight, r in zip(lam, chosen, strict=True):
+        for c in range(len(out)):
+            out[c] += weight * r.normal[c]
+    return tuple(out)
+
+
+_SINGULAR = 1e-12  # |det| of a Gram matrix of unit normals below this: dependent rows
+
+
+def _solve(a: list[list[float]], b: list[float]) -> list[float] | None:
+    """Solve a 1×1, 2×2 or 3×3 symmetric system by Cramer's rule; None if (near) singular."""
+    n = len(b)
+    if n == 1:
+        return [b[0] / a[0][0]]
+    if n == 2:
+        det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+        if abs(det) < _SINGULAR:
+            return None
+        return [
+            (b[0] * a[1][1] - a[0][1] * b[1]) / det,
+            (a[0][0] * b[1] - b[0] * a[1][0]) / det,
+        ]
+    det = _det3(a)
+    if abs(det) < _SINGULAR:
+        return None
+    out = []
+    for col in range(3):
+        m = [row[:] for row in a]
+        for r in range(3):
+            m[r][col] = b[r]
+        out.append(_det3(m) / det)
+    return out
+
+
+def _det3(m: list[list[float]]) -> float:
+    return (
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    )
+
+
+def _right_of(heading: Vector) -> Vector:
+    """A unit vector to the right of the unit ``heading``: clockwise in the plane; in 3-D
+    heading × z (horizontal), or the x axis for a vertical heading."""
+    if len(heading) == 2:
+        return (heading[1], -heading[0])
+    hx, hy, _hz = heading
+    norm = math.hypot(hx, hy)
+    if norm < 1e-9:
+        return (1.0, 0.0, 0.0)
+    return (hy / norm, -hx / norm, 0.0)
+
+
+def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) -> Vector | None:
+    """The right-hand rule against deadlock, or None when it does not apply.
+
+    A projection can leave an agent standing: when its nominal points straight into a row that
+    holds (another agent coming head on, an obstacle with the slot behind it), the projection
+    keeps only the tangential part, which is zero. Only when the projection keeps less than
+    :data:`SIDESTEP_BELOW` of the nominal's speed (an agent that still slides along a row is
+    left alone, whichever way it slides), for every row that is tight at ``filtered``
+    and that the nominal pushes into, the pushing part is turned to the right of the direction
+    towards the other agent or obstacle and added to the nominal, which is then rescaled to the
+    nominal's speed. Two agents head on each step to their own right and pass each other, as
+    people do; an agent behind an obstacle goes round it to the right. The caller projects the
+    result again, so safety does not depend on it.
+    """
+    speed = math.sqrt(_dot(nominal, nominal))
+    if _dot(filtered, filtered) >= (SIDESTEP_BELOW * speed) ** 2:
+        return None
+    push = [0.0] * len(nominal)
+    for r in rows:
+        if abs(_dot(r.normal, filtered) * dt - r.bound) > 1e-9:
+            continue  # not tight: not what holds the agent back
+        into = -_dot(r.normal, nominal)
+        if into <= 0.0:
+            continue
+        right = _right_of(tuple(-g for g in r.normal))  # right of "towards it"
+        for c in range(len(push)):
+            push[c] += into * right[c]
+    if not any(push):
+        return None
+    turned = [a + b for a, b in zip(nominal, push, strict=True)]
+    size = math.sqrt(_dot(turned, turned))
+    if size == 0.0:
+        return None
+    return tuple(x * (speed / size) for x in turned)
+
+
+def safe_velocity(
+    nominal: Vector,
+    sensing: Sensing,
+    agent_id: int,
+    *,
+    dt: float,
+    margin: float,
+    half_separation: float,
+    speed_limit: float,
+    right_hand: bool = True,
+) -> Filtered:
+    """The whole filter of one agent: cap the nominal at ``speed_limit`` (m/s), project it onto
+    the rows of ``sensing``, and where that leaves the agent pressed against a row, project the
+    right-hand turn of the nominal instead (:func:`sidestep`; ``right_hand`` False: the bare
+    projection). ``active`` is True when the result differs from the nominal as given (the cap
+    alone counts). The result always meets every row and is never faster than the capped
+    nominal; a feasible nominal comes back unchanged."""
+    capped = cap_speed(nominal, speed_limit)
+    reach = math.sqrt(_dot(capped, capped)) * dt
+    rows = rows_for(sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach)
+    out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
+    if out.active and right_hand:
+        turned = sidestep(capped, out.velocity, rows, dt)
+        if turned is not None:
+            again = project(turned, rows, dt)
+            if not again.fallback:
+                out = Filtered(again.velocity, active=True)
+    if capped is not nominal and not out.active:
+        return Filtered(out.velocity, active=True)
+    return out
