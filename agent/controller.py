@@ -30,9 +30,10 @@ from agent.formation import (
     shaped,
     velocity,
 )
+from agent.leader import detour, lead
 from bus.path import leader_velocity
 from bus.safety import safe_velocity
-from bus.types import AgentConfig, AgentState, Command, Sensing
+from bus.types import AgentConfig, AgentState, Command, Sensing, Waypoints
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +54,7 @@ class Memory:
     sigma_consensus: float
     target: FloatArray | None = None
     busy: int = 0
+    route: tuple[FloatArray, ...] | None = None
 
 
 # s: the longest a busy follower abstains from bidding for a contraction (see Memory.busy).
@@ -93,8 +95,19 @@ class Controller:
         return self._shapes[key]
 
     def start(self) -> Memory:
-        """The memory before tick 0: at rest, not evading, bidding 1, unscaled."""
-        return Memory(heading=np.zeros(self.config.dim), evasion=None, bid=1.0, sigma_consensus=1.0)
+        """The memory before tick 0: at rest, not evading, bidding 1, unscaled; a leader with
+        the safety filter and waypoints has all of them but the first (where it starts) to go."""
+        path = self.config.path
+        route = None
+        if self.params.filtered and isinstance(path, Waypoints):
+            route = tuple(np.asarray(p, dtype=np.float64) for p in path.points[1:])
+        return Memory(
+            heading=np.zeros(self.config.dim),
+            evasion=None,
+            bid=1.0,
+            sigma_consensus=1.0,
+            route=route,
+        )
 
     def shape(self, tick: int, sigma_consensus: float) -> tuple[float, float]:
         """(σ, θ) applied at ``tick``: the demanded reshape times the agreed contraction."""
@@ -153,7 +166,9 @@ class Controller:
                 safety_margin=p.safety_margin,
                 epsilon=p.epsilon,
             )
-        memory = Memory(memory.heading, evasion, bid, agreed, memory.target, memory.busy)
+        memory = Memory(
+            memory.heading, evasion, bid, agreed, memory.target, memory.busy, memory.route
+        )
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
             agent_id=self.config.agent_id,
@@ -175,8 +190,10 @@ class Controller:
         (gone) or evading (Ω_j = 1) is not followed this tick.
         """
         cfg, p = self.config, self.params
-        evasion, target, lag = memory.evasion, memory.target, 0.0
-        if cfg.path is not None:
+        evasion, target, lag, route = memory.evasion, memory.target, 0.0, memory.route
+        if route is not None and isinstance(cfg.path, Waypoints):
+            v, route = self._lead(route, sensing, cfg.path.speed)
+        elif cfg.path is not None:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
             v, evasion, target, lag = self._follow(memory, sensing, neighbours)
@@ -206,9 +223,31 @@ class Controller:
             sigma_consensus=memory.sigma_consensus,
             target=target,
             busy=busy,
+            route=route,
         )
         command = Command(agent_id=cfg.agent_id, tick=sensing.tick, velocity=out, filtered=filtered)
         return memory, command
+
+    def _lead(
+        self, route: tuple[FloatArray, ...], sensing: Sensing, speed: float
+    ) -> tuple[FloatArray, tuple[FloatArray, ...]]:
+        """The leader's nominal with the safety filter: round any sensed obstacle its next leg
+        would cross (keeping r_j + 2ρ + ε from the centre), then on to the next waypoint."""
+        p = self.params
+        position = np.asarray(sensing.position, dtype=np.float64)
+        centres = np.asarray(sensing.obstacle_centres, dtype=np.float64).reshape(
+            len(sensing.obstacle_ids), self.config.dim
+        )
+        radii = np.asarray(sensing.obstacle_radii, dtype=np.float64)
+        route = detour(
+            position,
+            route,
+            centres,
+            radii,
+            guard=p.safety_margin,
+            clearance=p.safety_margin + p.epsilon,
+        )
+        return lead(position, route, speed, self.config.dt)
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]

@@ -111,20 +111,15 @@ def rows_for(
     ‖v̂‖·dt the others cannot be active (see :func:`project`), so skipping them is exact.
     """
     pos = sensing.position
-    rows = []
-    for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii, strict=True):
-        limit = r + margin + reach
-        diff2 = 0.0
-        for a, b in zip(pos, c, strict=True):
-            diff2 += (a - b) * (a - b)
-        if diff2 < limit * limit:
-            rows.append(obstacle_row(pos, c, r, margin))
+    dist = math.dist
+    rows = [
+        obstacle_row(pos, c, r, margin)
+        for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii, strict=True)
+        if dist(pos, c) < r + margin + reach
+    ]
+    near = 2.0 * (half_separation + reach)
     for j, q in zip(sensing.agent_ids, sensing.agent_positions, strict=True):
-        limit = 2.0 * (half_separation + reach)
-        diff2 = 0.0
-        for a, b in zip(pos, q, strict=True):
-            diff2 += (a - b) * (a - b)
-        if diff2 < limit * limit:
+        if dist(pos, q) < near:
             rows.append(agent_row(pos, q, half_separation, lower=agent_id < j))
     return rows
 
@@ -136,7 +131,7 @@ def satisfies(velocity: Sequence[float], rows: Sequence[Row], dt: float) -> bool
 
 def cap_speed(velocity: Vector, limit: float) -> Vector:
     """``velocity`` scaled down to the speed ``limit`` (m/s) if it is faster; unchanged if not."""
-    speed = math.sqrt(_dot(velocity, velocity))
+    speed = math.hypot(*velocity)
     if speed <= limit * _CAP_SLACK:
         return velocity
     k = limit / speed
@@ -291,7 +286,7 @@ def safe_velocity(
     alone counts). The result always meets every row and is never faster than the capped
     nominal; a feasible nominal comes back unchanged."""
     capped = cap_speed(nominal, speed_limit)
-    reach = math.sqrt(_dot(capped, capped)) * dt
+    reach = math.hypot(*capped) * dt
     rows = rows_for(sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach)
     out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
     if out.active and right_hand:

@@ -35,3 +35,14 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
         assert cpu["total"] > 0 and min(cpu.values()) >= 0, run
     rss = figures["agent_peak_rss_mb"]
     assert rss["processes"] == 3 and 10 < rss["median"] <= rss["max"] < 500
+    assert figures["safety_filter"]["filter_us_per_agent_tick"] > 0
+
+
+def test_the_filter_benchmark_times_real_calls_idle_and_active() -> None:
+    from tools.bench_filter import bench_filter
+
+    figures = bench_filter(repeats=1)
+    assert figures["agent_ticks"] == 9500
+    assert 0 < figures["active_share"] < 1  # the field makes the filter act, now and then
+    assert figures["filter_us_idle"] > 0 and figures["filter_us_active"] > 0
+    assert figures["simulator_us_per_agent_tick"] > figures["filter_us_per_agent_tick"]

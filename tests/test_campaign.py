@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from tools.campaign import judge
 from tools.cli import main
 from world.assumptions import check_assumptions
-from world.errors import AssumptionError, BetaWarning, ScenarioError
+from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
 from world.fields import (
     BREACHES,
     REFUSED,
@@ -58,7 +58,14 @@ def test_each_outside_field_breaks_exactly_what_it_names(mode: str) -> None:
     for seed in range(8):
         field = make_field(OBSTACLES, seed, mode)
         assert breaches(field) == {mode}
-        if mode in REFUSED:  # the loader refuses it, naming the assumption
+        if mode == "A4":  # with the filter the leader goes round; Algorithm 2 alone: refused
+            with pytest.warns(DetourWarning, match="the leader will go round it"):
+                parse_scenario(field.source)
+            paper = make_field(OBSTACLES, seed, mode, FieldOptions(safety="paper"))
+            with pytest.raises(AssumptionError) as refused_a4:
+                parse_scenario(paper.source)
+            assert refused_a4.value.assumption == 4
+        elif mode in REFUSED:  # the loader refuses it, naming the assumption
             with pytest.raises(ScenarioError) as refused:
                 parse_scenario(field.source)
             if mode in NUMBERED:
@@ -141,7 +148,7 @@ def test_a_small_campaign_is_safe_inside_and_its_failures_replay(tmp_path: Path)
         clr = s["min_clearance"]
         assert clr["min"] <= clr["p01"] <= clr["p05"] <= clr["p50"]
     assert rep["sets"]["A4/paper"]["collided"] == 1  # the leader drives through the obstacle
-    assert rep["sets"]["A4"]["leader_reached"] == 0  # filtered, it stops at the guard instead
+    assert rep["sets"]["A4"]["leader_reached"] == 1  # filtered, it goes round instead
     failures = rep["failures"]
     assert sum(s["collided"] for s in rep["sets"].values()) == len(failures)
     assert any(f["rerun"] == "simulate" for f in failures)  # one the loader accepts
@@ -164,13 +171,25 @@ def test_a_small_campaign_is_safe_inside_and_its_failures_replay(tmp_path: Path)
 
 def test_rerun_names_what_a_saved_field_breaks(tmp_path: Path) -> None:
     path = tmp_path / "a4.yaml"
-    path.write_text(make_field(OBSTACLES, 1, "A4").source)
+    path.write_text(make_field(OBSTACLES, 1, "A4", FieldOptions(safety="paper")).source)
     result = CliRunner().invoke(main, ["campaign", "--rerun", str(path)])
     assert result.exit_code == 0, result.output
     assert "breaks                    A4" in result.output
     assert "agent–obstacle" in result.output
     refused = CliRunner().invoke(main, ["simulate", str(path)])
     assert refused.exit_code == 1 and "Assumption 4 violated" in refused.output
+
+
+def test_with_the_filter_an_a4_field_runs_with_a_warning_and_the_leader_goes_round(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "a4.yaml"
+    path.write_text(make_field(OBSTACLES, 1, "A4").source)
+    result = CliRunner().invoke(main, ["simulate", str(path), "--json"])
+    assert result.exit_code == 0, result.output
+    assert "the leader will go round it" in result.stderr
+    got = json.loads(result.stdout)
+    assert got["collisions"] == 0 and got["leader_shortfall"] <= got["tolerance"]
 
 
 def test_bad_obstacle_count_is_a_usage_error() -> None:

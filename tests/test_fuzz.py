@@ -8,7 +8,7 @@ Properties:
   lists of one length, documents of scalars) or raises ``DecodeError``; nothing else escapes,
   and no case takes long. Valid messages round-trip bit for bit.
 - **loader** (``world.loader.parse_scenario``): on any text, a valid ``Scenario`` or a
-  ``ScenarioError`` whose message starts with the field it names; no warning but BetaWarning.
+  ``ScenarioError`` whose message starts with the field it names; no warning but a ScenarioWarning.
 - **processes** (integration): a run under a stream of bad payloads on every key finishes, its
   log verifies bit for bit, and the world and every agent counted exactly the bad payloads meant
   for them (nothing well-formed is forged here: that is access control, docs/fuzzing.md).
@@ -69,7 +69,7 @@ from bus.types import (
     TickRecord,
     Waypoints,
 )
-from world.errors import BetaWarning, ScenarioError
+from world.errors import ScenarioError, ScenarioWarning
 from world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
 from world.scenario import Scenario
 
@@ -778,7 +778,8 @@ _ROOTS = {
 
 def load_or_refuse(target: str, text: str | dict[str, Any]) -> Scenario | None:
     """The loader's property: a valid Scenario, or a ScenarioError that names its field. The only
-    warning allowed is BetaWarning (a run that Theorem 1 does not cover)."""
+    warnings allowed are ScenarioWarnings: BetaWarning (a run that Theorem 1 does not cover) and
+    DetourWarning (the leader will go round an obstacle on its path)."""
     with case(target, text), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -792,7 +793,7 @@ def load_or_refuse(target: str, text: str | dict[str, Any]) -> Scenario | None:
             s = None
         except Exception as exc:
             raise AssertionError(f"{type(exc).__name__} on {text!r:.600}") from exc
-    assert all(issubclass(w.category, BetaWarning) for w in caught), [str(w) for w in caught]
+    assert all(issubclass(w.category, ScenarioWarning) for w in caught), [str(w) for w in caught]
     if s is not None:
         assert s.dim in (2, 3) and s.n >= 2 and s.steps >= 1
         for x in (s.dt, s.duration, *s.initial_positions.ravel(), *s.offsets.ravel()):

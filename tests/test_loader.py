@@ -16,7 +16,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from world.errors import AssumptionError, BetaWarning, ScenarioError
+from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
 from world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
 
 DELETE = object()
@@ -130,6 +130,10 @@ ASSUMPTION_CASES = {  # number, scenario, field, problem
 }  # fmt: skip
 
 
+def _paper(data: dict[str, Any]) -> dict[str, Any]:
+    return {**data, "control": {**data.get("control", {}), "safety": "paper"}}
+
+
 @pytest.mark.parametrize("case", ASSUMPTION_CASES)
 def test_each_assumption_is_named(case: str) -> None:
     number, data, field, message = ASSUMPTION_CASES[case]
@@ -137,8 +141,17 @@ def test_each_assumption_is_named(case: str) -> None:
     where = r"agents\[\d\]\.offset" if field == "agents[" else re.escape(field)
     pattern = f"^{where}: Assumption {number} violated: {message}"
     with pytest.raises(AssumptionError, match=pattern) as info:
-        scenario_from_dict(data)
+        scenario_from_dict(_paper(data) if field.startswith("leader.waypoints") else data)
     assert info.value.assumption == number and re.fullmatch(where, info.value.field)
+
+
+@pytest.mark.parametrize(
+    "case", [c for c in ASSUMPTION_CASES if "waypoints" in ASSUMPTION_CASES[c][2]]
+)
+def test_with_the_filter_a_waypoint_leg_through_an_obstacle_is_a_detour_warning(case: str) -> None:
+    _number, data, _field, message = ASSUMPTION_CASES[case]
+    with pytest.warns(DetourWarning, match=f"{message.rstrip('$')}.*the leader will go round it"):
+        scenario_from_dict(data)
 
 
 def test_directed_graph_where_leader_reaches_all_loads() -> None:
@@ -346,7 +359,8 @@ def _only_scenario_errors(call: Any, *args: Any) -> None:
         warnings.simplefilter("always")
         with contextlib.suppress(ScenarioError):
             call(*args)
-    assert all(issubclass(w.category, BetaWarning) for w in caught), [str(w) for w in caught]
+    allowed = (BetaWarning, DetourWarning)
+    assert all(issubclass(w.category, allowed) for w in caught), [str(w) for w in caught]
 
 
 @FUZZ

@@ -11,6 +11,7 @@ import click
 from bus.runtime import exit_on_signals
 from tools.bench import bench as run_bench
 from tools.bench_drops import bench_drops
+from tools.bench_filter import bench_filter
 from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
 
@@ -29,6 +30,12 @@ from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 @click.option("--speed", default=1.0, help="--drops: simulated seconds per wall-clock second.")
 @click.option("--settle", default=10.0, help="--drops: seconds excluded as the transient.")
 @click.option("--repeats", default=1, help="--drops: sweeps over the rates.")
+@click.option(
+    "--filter",
+    "filter_only",
+    is_flag=True,
+    help="Only the safety filter's CPU per agent-tick, beside the reference simulator's.",
+)
 def bench(
     sizes: str,
     ticks: int,
@@ -38,6 +45,7 @@ def bench(
     speed: float,
     settle: float,
     repeats: int,
+    filter_only: bool,
 ) -> None:
     """Measure lockstep ticks/s against a bare Zenoh exchange of the same message pattern
     (with each kind of process's CPU per tick in both), the time until every agent is up,
@@ -47,6 +55,9 @@ def bench(
     Prints one JSON object; progress goes to stderr.
     """
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    if filter_only:
+        _emit(bench_filter(), out)
+        return
     if drops is not None:
         try:
             rates = [float(s) for s in drops.split(",") if s.strip()]
@@ -72,6 +83,8 @@ def bench(
         result = run_bench(numbers, ticks, say=_say)
     except ChildFailed as exc:
         raise click.ClickException(str(exc)) from None
+    _say("the safety filter, per agent-tick")
+    result["safety_filter"] = bench_filter()
     _emit(result, out)
 
 

@@ -13,7 +13,7 @@ import click
 
 from tools.report import render_summary
 from tools.simulator import simulate as run_reference
-from world.errors import BetaWarning, ScenarioError
+from world.errors import ScenarioError, ScenarioWarning
 from world.loader import load_scenario
 from world.metrics import summarize
 from world.scenario import Scenario
@@ -22,7 +22,7 @@ from world.scenario import Scenario
 def load_for_cli(name_or_path: str) -> Scenario:
     """Load a scenario, turning its errors into messages a person can act on."""
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", BetaWarning)
+        warnings.simplefilter("always", ScenarioWarning)
         try:
             scenario = load_scenario(name_or_path)
         except ScenarioError as exc:

@@ -25,7 +25,7 @@ import numpy as np
 
 from bus.path import path_positions, peak_speed
 from bus.types import Waypoints
-from world.errors import AssumptionError, BetaWarning, ScenarioError
+from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
 from world.graph import FloatArray, communication_graph, hop_distances, reached_from_leader
 from world.scenario import Scenario
 
@@ -38,7 +38,7 @@ def check_assumptions(s: Scenario) -> None:
     if s.obstacles:
         _assumption2(s)
         _assumption3(s)
-        _assumption4(s)
+        _leader_path(s)
         _trigger_reach(s)
         _starts_clear(s)
     _beta(s)
@@ -125,6 +125,42 @@ def _assumption4(s: Scenario) -> None:
                 "leader.sinusoid",
                 f"the path passes {clear:.3g} m from the edge of obstacles[{o}], "
                 f"within the safety margin {margin} m",
+            )
+
+
+def _leader_path(s: Scenario) -> None:
+    """Assumption 4; with the safety filter and waypoints a broken one is a warning, since the
+    leader goes round the obstacle (agent/leader.py), unless a waypoint itself lies too close
+    to an obstacle to be reached round it."""
+    try:
+        _assumption4(s)
+    except AssumptionError as exc:
+        if s.control.safety != "filter" or not isinstance(s.path, Waypoints):
+            raise
+        _waypoints_reachable(s, s.path)
+        warnings.warn(
+            f"{s.name}: {exc.problem}; the leader will go round it (docs/safety.md)",
+            DetourWarning,
+            stacklevel=4,
+        )
+
+
+def _waypoints_reachable(s: Scenario, path: Waypoints) -> None:
+    """Every waypoint after the start keeps r_j + 2ρ + ε from every obstacle's centre: the
+    circle a detour keeps (agent/leader.py) must not hold the waypoint it goes to."""
+    c = s.control
+    centres, radii = s.obstacle_centres, s.obstacle_radii
+    for k, point in enumerate(path.points[1:], start=1):
+        dist = np.linalg.norm(centres - np.asarray(point), axis=1) - radii
+        o = int(np.argmin(dist))
+        keep = 2 * c.safety_margin + c.epsilon
+        if dist[o] <= keep:
+            raise AssumptionError(
+                4,
+                f"leader.waypoints[{k}]",
+                f"the waypoint is {dist[o]:.3g} m from the edge of obstacles[{o}], within "
+                f"2ρ + ε = {keep:.3g} m: the leader can go round an obstacle on its path, but "
+                "not reach a waypoint this close to one",
             )
 
 

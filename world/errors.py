@@ -24,5 +24,14 @@ class AssumptionError(ScenarioError):
         super().__init__(field, f"Assumption {assumption} violated: {problem}")
 
 
-class BetaWarning(UserWarning):
+class ScenarioWarning(UserWarning):
+    """A scenario that runs, but outside something the paper or the filter promises."""
+
+
+class BetaWarning(ScenarioWarning):
     """The leader moves as fast as β or faster in some coordinate: Theorem 1 does not apply."""
+
+
+class DetourWarning(ScenarioWarning):
+    """The leader's path crosses an obstacle's guard (Assumption 4 broken): with the safety
+    filter the leader goes round it (agent/leader.py) and the run goes ahead."""

@@ -36,7 +36,7 @@ from bus.geometry import FloatArray, shaped
 from bus.path import path_position, peak_speed
 from bus.types import PathSpec, Sinusoid, Waypoints
 from world import assumptions
-from world.errors import BetaWarning, ScenarioError, WorldError
+from world.errors import BetaWarning, ScenarioError, ScenarioWarning, WorldError
 from world.graph import adjacency, reached_from_leader
 from world.loader import parse_scenario, scenario_from_dict
 from world.scenario import Obstacle, Scenario
@@ -203,7 +203,7 @@ def load_field(text: str) -> Scenario:
         raise ScenarioError("scenario", "the file must hold a mapping of fields")
     rest = {k: v for k, v in data.items() if k != "obstacles"}
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", BetaWarning)
+        warnings.simplefilter("ignore", ScenarioWarning)
         bare = scenario_from_dict(rest, source=text, default_name="field")
     return dataclasses.replace(bare, obstacles=_read_obstacles(data.get("obstacles", []), bare.dim))
 
@@ -249,7 +249,7 @@ def make_field(
         data["graph"]["edges"], cut = _fragile_graph(base, rng)
         inherent = frozenset({"A2"})
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", BetaWarning)
+        warnings.simplefilter("ignore", ScenarioWarning)
         bare = scenario_from_dict(data)
     placer = _Placer(bare, moving, rng, opts, inherent)
     if mode == "A2":
@@ -261,7 +261,7 @@ def make_field(
         data["control"] = _short_sight(placer.scenario(), rng)
     text = _header(base, seed, mode) + yaml.safe_dump(data, sort_keys=False)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", BetaWarning)
+        warnings.simplefilter("ignore", ScenarioWarning)
         field = load_field(text) if mode in REFUSED else parse_scenario(text)
     _confirm(field, mode)
     return field

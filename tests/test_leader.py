@@ -1,0 +1,132 @@
+"""The leader's detour (agent/leader.py): with the safety filter a leader whose leg crosses an
+obstacle's guard goes round it on a polygon that keeps r + 2ρ + ε, then resumes its route."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from agent.collision import segment_distance
+from agent.leader import detour, lead
+from world.errors import AssumptionError, DetourWarning
+from world.loader import scenario_from_dict
+
+RHO, CLEAR = 0.2, 0.25  # the controller's guard ρ and clearance ρ + ε
+
+
+def _legs(start: np.ndarray, route: tuple[np.ndarray, ...]) -> list[tuple[np.ndarray, ...]]:
+    points = [start, *route]
+    return list(itertools.pairwise(points))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    dim=st.sampled_from([2, 3]),
+)
+def test_a_detour_keeps_its_circle_on_every_leg_and_ends_at_the_waypoint(
+    seed: int, dim: int
+) -> None:
+    rng = np.random.default_rng(seed)
+    start, goal = np.zeros(dim), np.zeros(dim)
+    goal[0] = 12.0
+    centre = rng.uniform(-1, 1, size=dim) * 0.8
+    centre[0] = rng.uniform(3, 9)
+    radius = float(rng.uniform(0.3, 1.5))
+    route = detour(start, (goal,), centre[None], np.array([radius]), guard=RHO, clearance=CLEAR)
+    keep = radius + RHO + CLEAR
+    if segment_distance(centre, start, goal) >= keep - CLEAR / 2:
+        assert route == (goal,)  # nothing in the way: no detour
+        return
+    assert len(route) >= 2 and route[-1] is goal
+    for a, b in _legs(start, route):
+        assert segment_distance(centre, a, b) >= keep - 1e-9
+
+
+def test_a_leg_clear_of_every_obstacle_is_left_alone() -> None:
+    start, goal = np.zeros(2), np.array([10.0, 0.0])
+    route = (goal,)
+    far = np.array([[5.0, 3.0]])
+    assert detour(start, route, far, np.array([1.0]), guard=RHO, clearance=CLEAR) is route
+
+
+def test_a_blocked_short_side_sends_the_leader_round_the_other() -> None:
+    start, goal = np.zeros(2), np.array([12.0, 0.0])
+    centres = np.array([[6.0, 0.3], [6.0, 2.2]])  # the second sits on the short way round
+    radii = np.array([1.0, 0.5])
+    route = detour(start, (goal,), centres, radii, guard=RHO, clearance=CLEAR)
+    assert all(p[1] < 0 for p in route[:-1])  # round below, the long way
+    for a, b in _legs(start, route):
+        for c, r in zip(centres, radii, strict=True):
+            assert segment_distance(c, a, b) >= r + RHO + CLEAR / 2
+
+
+def test_two_obstacles_with_no_way_between_or_round_are_gone_round_together() -> None:
+    start, goal = np.zeros(2), np.array([12.0, 0.0])
+    centres = np.array([[6.0, -0.6], [6.0, 0.9]])
+    radii = np.array([0.8, 0.6])
+    route = detour(start, (goal,), centres, radii, guard=RHO, clearance=CLEAR)
+    assert len(route) >= 2
+    for a, b in _legs(start, route):
+        for c, r in zip(centres, radii, strict=True):
+            assert segment_distance(c, a, b) >= r + RHO
+
+
+def test_lead_visits_the_waypoints_in_order_at_the_paths_speed() -> None:
+    position = np.zeros(2)
+    route = (np.array([1.0, 0.0]), np.array([1.0, 1.0]))
+    visited, speeds = [], []
+    for _ in range(400):
+        v, left = lead(position, route, 2.0, 0.01)
+        speeds.append(float(np.linalg.norm(v)))
+        if len(left) < len(route):
+            visited.append(route[0])
+        route = left
+        position = position + 0.01 * v
+    assert [p.tolist() for p in visited] == [[1.0, 0.0], [1.0, 1.0]]
+    assert max(speeds) <= 2.0 + 1e-12 and speeds[-1] == 0.0
+    assert np.allclose(position, [1.0, 1.0], atol=1e-12)
+
+
+def _scenario(waypoints: list[list[float]], **control: object) -> dict[str, object]:
+    return {
+        "dt": 0.01,
+        "duration": 30.0,
+        "control": {"sensing_radius": 5.0, "trigger_radius": 4.0, **control},
+        "graph": {"edges": [[1, 2], [2, 3], [1, 3]]},
+        "agents": [{"offset": [0, 0]}, {"offset": [-3, 3]}, {"offset": [-3, -3]}],
+        "leader": {"waypoints": waypoints, "speed": 1.0},
+        "obstacles": [{"centre": [8, 0.2], "radius": 1.0}],
+    }
+
+
+def test_an_obstacle_on_the_leaders_path_is_a_warning_with_the_filter_an_error_without() -> None:
+    with pytest.warns(DetourWarning, match="leader will go round it"):
+        scenario_from_dict(_scenario([[0, 0], [16, 0]]))
+    with pytest.raises(AssumptionError, match="Assumption 4"):
+        scenario_from_dict(_scenario([[0, 0], [16, 0]], safety="paper"))
+
+
+def test_a_waypoint_too_close_to_an_obstacle_is_refused_even_with_the_filter() -> None:
+    with pytest.raises(AssumptionError, match="not reach a waypoint") as refused:
+        scenario_from_dict(_scenario([[0, 0], [8, 1.3], [16, 0]]))
+    assert refused.value.field == "leader.waypoints[1]"
+
+
+def test_the_formation_follows_a_leader_that_goes_round_an_obstacle_on_its_path() -> None:
+    from tools.simulator import simulate
+    from world.metrics import summarize
+
+    with pytest.warns(DetourWarning):
+        scn = scenario_from_dict(_scenario([[0, 0], [16, 0]]))
+    traj = simulate(scn)
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.min_clearance >= RHO - 1e-9
+    assert np.allclose(traj.positions[-1, 0], [16.0, 0.0], atol=1e-9)  # the leader got there
+    assert s.final_formation_error <= s.tolerance  # and the formation closed up behind it
+    leader_y = traj.positions[:, 0, 1]
+    assert leader_y.min() < -1.0  # it went round (below: the centre is above the leg)
