@@ -88,11 +88,17 @@ class Evasion:
     offset: FloatArray
 
 
-def _ratchet(held: Evasion, position: FloatArray, heading: FloatArray, clearance: float) -> Evasion:
-    """Grow u^o (never shrink it) while the ray still passes within r_j + ρ + ε of the obstacle.
+def _ratchet(
+    held: Evasion, position: FloatArray, heading: FloatArray, clearance: float, cap: float
+) -> Evasion:
+    """Grow u^o (never shrink it) while the ray still passes within r_j + ρ + ε of the obstacle,
+    up to ``cap`` × (r_j + ρ + ε).
 
     u^o is fixed at τ_i from the heading of that instant, which the sign term's chattering blurs;
     re-measuring the ray while the episode lasts corrects a misjudged τ_i, along u^o's direction.
+    Unbounded (the paper mode, cap = inf) it grew to 93 × (r_j + ρ + ε) in the campaign while an
+    agent was held still: a set-point that far off keeps the agent away from its slot for long
+    after the obstacle is passed.
     """
     short = held.radius + clearance - ray_distance(position, heading, held.centre)
     if not short > 0:
@@ -100,7 +106,10 @@ def _ratchet(held: Evasion, position: FloatArray, heading: FloatArray, clearance
     size = float(np.linalg.norm(held.offset))
     if size == 0.0:
         return held
-    grown = held.offset * ((size + short) / size)
+    most = cap * (held.radius + clearance)
+    if size >= most:
+        return held
+    grown = held.offset * (min(size + short, most) / size)
     return Evasion(held.obstacle_id, held.centre, held.radius, grown)
 
 
@@ -137,6 +146,7 @@ def collision_course(
     sensing_radius: float,
     safety_margin: float,
     epsilon: float,
+    ratchet_cap: float = math.inf,
 ) -> Evasion | None:
     """Ω_i(t) of (11): the evasion in force this tick, or None for Ω_i = 0.
 
@@ -146,7 +156,8 @@ def collision_course(
     agent has not yet passed the obstacle's guard circle r_j + ρ along its
     current heading. A newly
     firing obstacle nearer than the held one starts a new episode (new τ_i, new u^o). While an
-    episode holds, u^o only grows if the ray still passes too close (see ``_ratchet``).
+    episode holds, u^o only grows if the ray still passes too close (see ``_ratchet``), to at
+    most ``ratchet_cap`` × (r_j + ρ + ε).
     """
     hits = _triggers(
         position,
@@ -164,7 +175,7 @@ def collision_course(
         if dist <= sensing_radius and along < held.radius + safety_margin:
             nearer = [k for d, k in hits if d < dist and obstacle_ids[k] != held.obstacle_id]
             if not nearer:
-                return _ratchet(held, position, heading, safety_margin + epsilon)
+                return _ratchet(held, position, heading, safety_margin + epsilon, ratchet_cap)
     if not hits:
         return None
     _, k = hits[0]

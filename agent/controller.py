@@ -57,6 +57,9 @@ class Memory:
     route: tuple[FloatArray, ...] | None = None
 
 
+# With the safety filter u^o grows to at most this many times r_j + ρ + ε (agent/collision.py):
+# twice what a ray through the centre needs.
+RATCHET_CAP = 2.0
 # s: the longest a busy follower abstains from bidding for a contraction (see Memory.busy).
 BUSY_TIME = 5.0
 # A follower is far from its slot (busy) while ‖e_i‖∞ / deg_i exceeds this many β·dt: the
@@ -165,6 +168,7 @@ class Controller:
                 sensing_radius=p.sensing_radius,
                 safety_margin=p.safety_margin,
                 epsilon=p.epsilon,
+                ratchet_cap=RATCHET_CAP if p.filtered else math.inf,
             )
         memory = Memory(
             memory.heading, evasion, bid, agreed, memory.target, memory.busy, memory.route

@@ -242,3 +242,25 @@ def test_held_offset_never_shrinks() -> None:
     # Ray clear of the obstacle (d = 3.5 > 1.375) or no ray at all: u^o stays as it was.
     assert _course([2.0, -3.0], EAST, [[5.0, 0.5]], held=held, ids=(7,)) is held
     assert _course([2.0, 0.0], [0.0, 0.0], [[5.0, 0.5]], held=held, ids=(7,)) is held
+
+
+@pytest.mark.parametrize(("cap", "bounded"), [(2.0, True), (math.inf, False)])
+def test_the_ratchet_on_u_o_stops_at_its_cap(cap: float, bounded: bool) -> None:
+    """An agent whose heading keeps pointing at the obstacle (held back, not steering) grows
+    u^o every tick; with the filter's cap it stops at cap × (r + ρ + ε), without it it runs on."""
+    centre, radius, rho, eps = np.array([3.0, 0.0]), 1.0, 0.2, 0.05
+    position, heading = np.array([0.0, 0.0]), np.array([1.0, 0.0])
+    held = None
+    for _ in range(200):
+        held = collision_course(
+            position, heading, (0,), centre[None], np.array([radius]), held,
+            trigger_radius=4.0, sensing_radius=5.0, safety_margin=rho, epsilon=eps,
+            ratchet_cap=cap,
+        )  # fmt: skip
+        assert held is not None
+    size = float(np.linalg.norm(held.offset))
+    guard = radius + rho + eps
+    if bounded:
+        assert size == pytest.approx(cap * guard)
+    else:
+        assert size > 10 * guard
