@@ -58,3 +58,15 @@ def test_a_realtime_swarm_keeps_every_guard_and_separation(tmp_path: Path) -> No
     rho = scn.control.safety_margin
     assert got["min_clearance"] >= rho - 1e-9  # exactly the theorem's guard, not "about"
     assert got["min_interagent_distance"] >= scn.separation - 1e-9
+
+
+def test_campaign_swarm_runs_fields_as_processes_and_checks_them() -> None:
+    proc = run_cli(["campaign", "--swarm", "1", "--swarm-clock", "lockstep", "--length", "8",
+                    "--json"])  # fmt: skip
+    assert proc.returncode == 0
+    rep = json_of(proc)
+    assert rep["fields"] == 1 and rep["clock"] == "lockstep"
+    assert rep["inexact"] == 0 and rep["collided"] == 0 and rep["actuator_corrections"] == 0
+    (row,) = rep["rows"]
+    assert row["exact"] is True and row["name"] == "obstacles-inside-0"
+    assert row["min_clearance"] >= row["guard_margin"] - 1e-9

@@ -11,15 +11,19 @@ from typing import Any
 
 import click
 
+from bus.runtime import exit_on_signals
 from tools.campaign import measure, render, report, run_campaign, saved_stem, tasks
 from tools.campaign import save_failures as write_failures
+from tools.campaign_swarm import render_swarms, run_swarms, swarm_report
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.progress import progress_bar
 from tools.report import render_summary
 from tools.simulator import simulate
+from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from world.errors import ScenarioError
 from world.fields import FieldOptions, breaches, load_field
 from world.metrics import summarize
+from world.scenario import Scenario
 
 
 def _count(text: str) -> tuple[int, int]:
@@ -53,6 +57,18 @@ def _count(text: str) -> tuple[int, int]:
     "side by side (sets named SET/paper).",
 )
 @click.option(
+    "--swarm",
+    type=click.IntRange(min=1),
+    help="Instead: run the first N inside fields as distributed swarms (real processes).",
+)
+@click.option(
+    "--swarm-clock",
+    type=click.Choice(["lockstep", "realtime"]),
+    default="realtime",
+    show_default=True,
+    help="--swarm: the clock (lockstep runs must also equal the reference bit for bit).",
+)
+@click.option(
     "--save-failures",
     type=click.Path(file_okay=False, path_type=Path),
     help="Write every field that collided to this directory as scenario YAML.",
@@ -75,6 +91,8 @@ def campaign(
     spacing: float,
     sigma_max: float | None,
     safety: str,
+    swarm: int | None,
+    swarm_clock: str,
     save_failures: Path | None,
     rerun: Path | None,
     as_json: bool,
@@ -94,6 +112,9 @@ def campaign(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max
     )
     scn = load_for_cli(base)
+    if swarm is not None:
+        _swarms(scn, seed, swarm, options, swarm_clock, as_json)
+        return
     modes = ("filter", "paper") if safety == "both" else (safety,)
     todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
     start = time.perf_counter()
@@ -106,6 +127,21 @@ def campaign(
             failure["file"] = written.get(saved_stem(failure["name"], failure["safety"]))
     click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
     _exit_status(rep, save_failures, "inside/paper" if safety == "paper" else "inside")
+
+
+def _swarms(
+    scn: Scenario, seed: int, count: int, options: FieldOptions, clock: str, as_json: bool
+) -> None:
+    exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    with progress_bar(count, f"{count} swarms ({clock}) around {scn.name}") as bar:
+        try:
+            rows = run_swarms(scn, seed, count, options, clock=clock, done=lambda _r: bar.update(1))
+        except ChildFailed as exc:
+            raise click.ClickException(str(exc)) from None
+    rep = swarm_report(rows, clock)
+    click.echo(json.dumps(_json_safe(rep)) if as_json else render_swarms(rep))
+    if rep["collided"] or rep["below_guard"] or rep["below_separation"] or rep["inexact"]:
+        sys.exit(1)
 
 
 def _exit_status(rep: dict[str, Any], saved: Path | None, judged: str) -> None:
