@@ -204,10 +204,29 @@ def test_the_adversarial_swarm_does_press_against_the_boundaries() -> None:
     assert clear < 1e-3 and gap < 1e-3
 
 
+def _pair_step(
+    tick: int,
+    nominal: np.ndarray,
+    me: np.ndarray,
+    other: np.ndarray,
+    i: int,
+    *,
+    half: float,
+    dt: float,
+    right_hand: bool,
+) -> np.ndarray:
+    """Agent i's filtered velocity with the one other agent (id 3 − i) in sight."""
+    from bus.types import Sensing
+
+    seen = Sensing(tick, tuple(me.tolist()), (), (), (), (3 - i,), (tuple(other.tolist()),))
+    out = safe_velocity(tuple(nominal.tolist()), seen, i, dt=dt, margin=0.2,
+                        half_separation=half, speed_limit=5.0, right_hand=right_hand)  # fmt: skip
+    return np.asarray(out.velocity)
+
+
 def test_two_agents_head_on_pass_each_other_to_their_right() -> None:
     """The bare projection stops both for good (each nominal points straight at the other);
     with the right-hand rule they swap places, never closer than the separation."""
-    from bus.types import Sensing
 
     dt, half = 0.05, 0.25
     for right_hand, expect_swap in ((False, False), (True, True)):
@@ -217,29 +236,9 @@ def test_two_agents_head_on_pass_each_other_to_their_right() -> None:
         for k in range(400):
             va = np.clip(goal_a - a, -1, 1) * 1.5
             vb = np.clip(goal_b - b, -1, 1) * 1.5
-            sa = Sensing(k, tuple(a.tolist()), (), (), (), (2,), (tuple(b.tolist()),))
-            sb = Sensing(k, tuple(b.tolist()), (), (), (), (1,), (tuple(a.tolist()),))
-            fa = safe_velocity(
-                tuple(va.tolist()),
-                sa,
-                1,
-                dt=dt,
-                margin=0.2,
-                half_separation=half,
-                speed_limit=5.0,
-                right_hand=right_hand,
-            )
-            fb = safe_velocity(
-                tuple(vb.tolist()),
-                sb,
-                2,
-                dt=dt,
-                margin=0.2,
-                half_separation=half,
-                speed_limit=5.0,
-                right_hand=right_hand,
-            )
-            na, nb = np.asarray(fa.velocity), np.asarray(fb.velocity)
+
+            na = _pair_step(k, va, a, b, 1, half=half, dt=dt, right_hand=right_hand)
+            nb = _pair_step(k, vb, b, a, 2, half=half, dt=dt, right_hand=right_hand)
             closest = min(closest, pair_gap_along_step(a, na, b, nb, dt))
             a, b = a + dt * na, b + dt * nb
         swapped = np.linalg.norm(a - goal_a) < 0.05 and np.linalg.norm(b - goal_b) < 0.05

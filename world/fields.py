@@ -66,7 +66,8 @@ BREACHES: dict[str, Breach] = {
     ),
     "A4": Breach(
         "Assumption 4",
-        "one obstacle lies across the leader's path (the leader never evades)",
+        "one obstacle lies across the leader's path (with the filter the leader goes round it; "
+        "without, it never evades)",
         static=True,
     ),
     "speed": Breach(
