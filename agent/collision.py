@@ -34,14 +34,6 @@ def ray_distance(origin: FloatArray, heading: FloatArray, centre: FloatArray) ->
     return float(np.linalg.norm(to_centre - along * unit))
 
 
-def segment_distance(point: FloatArray, a: FloatArray, b: FloatArray) -> float:
-    """Distance from ``point`` to the segment from ``a`` to ``b``, m."""
-    ab = b - a
-    length2 = float(ab @ ab)
-    t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, float((point - a) @ ab) / length2))
-    return float(np.linalg.norm(point - (a + t * ab)))
-
-
 def _left_of(unit: FloatArray) -> FloatArray:
     """A unit vector perpendicular to ``unit``, chosen deterministically (left in the plane)."""
     if unit.shape[0] == 2:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.collision import Evasion, collision_course, ray_distance, segment_distance
+from agent.collision import Evasion, collision_course, ray_distance
 from agent.consensus import consensus_round, epoch_start, passage_bid
 from agent.errors import ConfigError
 from agent.formation import (
@@ -31,6 +31,7 @@ from agent.formation import (
     velocity,
 )
 from agent.leader import detour, lead
+from bus.geometry import segment_distance
 from bus.path import leader_velocity
 from bus.safety import safe_velocity
 from bus.types import AgentConfig, AgentState, Command, Sensing, Waypoints
@@ -44,15 +45,12 @@ class Memory:
     evasion : the evasive episode in force (Ω_i = 1), or None.
     bid : this agent's current value in Algorithm 1.
     sigma_consensus : the factor agreed in the last finished epoch, applied now.
-    target : (dim,) m, where the plain law (1) of the last tick pulled the agent, without u^o
-        (its set-point, where e_i = 0); None before, or without a neighbour, or in paper mode.
     """
 
     heading: FloatArray
     evasion: Evasion | None
     bid: float
     sigma_consensus: float
-    target: FloatArray | None = None
     busy: int = 0
     route: tuple[FloatArray, ...] | None = None
 
@@ -170,9 +168,7 @@ class Controller:
                 epsilon=p.epsilon,
                 ratchet_cap=RATCHET_CAP if p.filtered else math.inf,
             )
-        memory = Memory(
-            memory.heading, evasion, bid, agreed, memory.target, memory.busy, memory.route
-        )
+        memory = Memory(memory.heading, evasion, bid, agreed, busy=memory.busy, route=memory.route)
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
             agent_id=self.config.agent_id,
@@ -194,13 +190,13 @@ class Controller:
         (gone) or evading (Ω_j = 1) is not followed this tick.
         """
         cfg, p = self.config, self.params
-        evasion, target, lag, route = memory.evasion, memory.target, 0.0, memory.route
+        evasion, lag, route = memory.evasion, 0.0, memory.route
         if route is not None and isinstance(cfg.path, Waypoints):
             v, route = self._lead(route, sensing, cfg.path.speed)
         elif cfg.path is not None:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
-            v, evasion, target, lag = self._follow(memory, sensing, neighbours)
+            v, evasion, lag = self._follow(memory, sensing, neighbours)
         out = tuple(float(c) for c in v)
         filtered = False
         if p.filtered:
@@ -225,7 +221,6 @@ class Controller:
             evasion=evasion,
             bid=consensus_round(memory.bid, bids),
             sigma_consensus=memory.sigma_consensus,
-            target=target,
             busy=busy,
             route=route,
         )
@@ -255,10 +250,10 @@ class Controller:
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]
-    ) -> tuple[FloatArray, Evasion | None, FloatArray | None, float]:
-        """The nominal v̂_i of a follower, the evasion to carry into the next tick, (with the
-        safety filter) the plain law's set-point s_i − e_i/deg_i, where (1) without u^o pulls
-        the agent, and how far that is per coordinate, ‖e_i‖∞/deg_i (m; 0 without neighbours).
+    ) -> tuple[FloatArray, Evasion | None, float]:
+        """The nominal v̂_i of a follower, the evasion to carry into the next tick, and (with
+        the safety filter) how far the plain law's set-point s_i − e_i/deg_i, where (1) without
+        u^o pulls the agent, is per coordinate: ‖e_i‖∞/deg_i (m; 0 without neighbours).
 
         With the safety filter an episode also ends once neither the agent's heading (the ray
         of (11)) nor the straight way to that set-point comes within the obstacle's guard
@@ -294,7 +289,7 @@ class Controller:
         if held is not None:
             error = evasive_error(error, len(keep), held.offset)
         v = velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)
-        return v, held, target, lag
+        return v, held, lag
 
 
 def _validate(config: AgentConfig) -> None:

@@ -13,6 +13,14 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
+def segment_distance(point: FloatArray, a: FloatArray, b: FloatArray) -> float:
+    """Distance from ``point`` to the segment from ``a`` to ``b``, m."""
+    ab = b - a
+    length2 = float(ab @ ab)
+    t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, float((point - a) @ ab) / length2))
+    return float(np.linalg.norm(point - (a + t * ab)))
+
+
 def rotation(theta: float, dim: int) -> FloatArray:
     """R(θ): (dim, dim) rotation by θ rad counter-clockwise; about the z axis in 3-D.
 

@@ -114,12 +114,14 @@ def step_leaves_guard(case: Case, v: tuple[float, ...]) -> bool:
     s = np.asarray(case.sensing.position)
     step = np.asarray(v) * case.dt
     for c, r in zip(case.sensing.obstacle_centres, case.sensing.obstacle_radii, strict=True):
-        if _segment_distance(np.asarray(c), s, s + step) < r + case.margin - SLACK:
+        if segment_gap(np.asarray(c), s, s + step) < r + case.margin - SLACK:
             return True
     return False
 
 
-def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+def segment_gap(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance from p to the segment a–b, written here again on purpose: the checkers do not
+    trust the code they check."""
     ab = b - a
     length2 = float(ab @ ab)
     t = 0.0 if length2 == 0 else min(1.0, max(0.0, float((p - a) @ ab) / length2))

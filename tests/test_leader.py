@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from agent.collision import segment_distance
 from agent.leader import detour, lead
+from bus.geometry import segment_distance
 from world.errors import AssumptionError, DetourWarning
 from world.loader import scenario_from_dict
 

@@ -17,6 +17,7 @@ from safety_cases import (
     failures,
     pair_gap_along_step,
     random_case,
+    segment_gap,
     unit,
 )
 
@@ -171,7 +172,7 @@ def _swarm_run(seed: int, dim: int, steps: int) -> tuple[float, float]:
             ).velocity  # fmt: skip
         for i in range(n):
             for c, r in zip(centres, radii, strict=True):
-                case_gap = _least_on_step(pos[i], vel[i] * dt, c) - (r + rho)
+                case_gap = segment_gap(c, pos[i], pos[i] + vel[i] * dt) - (r + rho)
                 worst_clear = min(worst_clear, case_gap)
         for i, j in itertools.combinations(range(n), 2):
             gap = pair_gap_along_step(pos[i], vel[i], pos[j], vel[j], dt) - 2 * half
@@ -180,12 +181,6 @@ def _swarm_run(seed: int, dim: int, steps: int) -> tuple[float, float]:
         if k % 25 == 0:
             targets = rng.integers(0, n + m, size=n)
     return worst_clear, worst_gap
-
-
-def _least_on_step(a: np.ndarray, step: np.ndarray, c: np.ndarray) -> float:
-    length2 = float(step @ step)
-    t = 0.0 if length2 == 0 else min(1.0, max(0.0, float((c - a) @ step) / length2))
-    return float(np.linalg.norm(c - (a + t * step)))
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -259,11 +259,9 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
         {"set": o.set_name, "seed": o.seed, "name": o.name, "obstacle_collisions":
          o.obstacle_collisions, "agent_collisions": o.agent_collisions,
          "min_clearance": o.min_clearance, "min_interagent_distance": o.min_interagent_distance,
-         "rerun": "campaign --rerun" if o.mode in REFUSED else "simulate"}
+         "rerun": "campaign --rerun" if o.mode in REFUSED else "simulate", "safety": o.safety}
         for o in outcomes if o.error is None and o.collided
     ]  # fmt: skip
-    for f, o in zip(failures, [o for o in outcomes if o.error is None and o.collided], strict=True):
-        f["safety"] = o.safety
     errors = [{"set": o.set_name, "seed": o.seed, "error": o.error} for o in outcomes if o.error]
     return {
         "fields": len(outcomes),

@@ -23,6 +23,7 @@ import warnings
 
 import numpy as np
 
+from bus.geometry import segment_distance
 from bus.path import path_positions, peak_speed
 from bus.types import Waypoints
 from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
@@ -94,13 +95,6 @@ def _assumption3(s: Scenario) -> None:
             )
 
 
-def _segment_distance(p: FloatArray, a: FloatArray, b: FloatArray) -> float:
-    ab = b - a
-    length2 = float(ab @ ab)
-    t = 0.0 if length2 == 0 else min(1.0, max(0.0, float((p - a) @ ab) / length2))
-    return float(np.linalg.norm(p - (a + t * ab)))
-
-
 def _assumption4(s: Scenario) -> None:
     margin = s.control.safety_margin
     centres, radii = s.obstacle_centres, s.obstacle_radii
@@ -108,7 +102,7 @@ def _assumption4(s: Scenario) -> None:
         pts = np.asarray(s.path.points, dtype=np.float64)
         legs = [(k, pts[k], pts[k + 1]) for k in range(len(pts) - 1)] or [(0, pts[0], pts[0])]
         for (k, a, b), o in itertools.product(legs, range(len(radii))):
-            clear = _segment_distance(centres[o], a, b) - radii[o]
+            clear = segment_distance(centres[o], a, b) - radii[o]
             if clear <= margin:
                 raise AssumptionError(
                     4,
