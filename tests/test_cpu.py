@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import os
 import resource
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
-from tools.cpu import CpuWindow, cpu_seconds, per_tick_us
+from tools.cpu import CpuWindow, of_pid, per_tick_us, swarm_processes
+from tools.procfs import cpu_seconds
+from tools.swarm import Child, Swarm
 
 
 def test_per_tick_figures_are_per_process_means_and_a_total_over_all() -> None:
@@ -33,7 +38,7 @@ def test_a_process_cpu_time_is_read_as_the_kernel_accounts_it() -> None:
 
 
 def test_a_window_accounts_the_work_done_inside_it() -> None:
-    window = CpuWindow(lambda: [("test", os.getpid())])
+    window = CpuWindow(lambda: [of_pid("test", os.getpid())])
     window.open()
     start = cpu_seconds(os.getpid()) or 0.0
     while (cpu_seconds(os.getpid()) or 0.0) - start < 0.2:
@@ -41,3 +46,28 @@ def test_a_window_accounts_the_work_done_inside_it() -> None:
     figures = window.close(ticks=100)
     assert 2000.0 <= figures["test"] <= 2600.0  # 0.2 s (+ a clock tick or two) over 100 ticks
     assert figures["total"] == figures["test"]
+
+
+BURN = "import sys, time\nsys.stdin.read()\nt = time.process_time()\n" + (
+    "while time.process_time() - t < 0.3: pass"
+)
+
+
+def test_a_process_that_exits_inside_the_window_still_counts(tmp_path: Path) -> None:
+    """Processes reaped before the window closes (the supervisor polls its children; the
+    agents' fork server reaps the agents at once) count with their CPU time at exit: under
+    load the last tick is often accounted after the run's processes have ended."""
+    with Swarm(log_dir=tmp_path) as swarm:
+        burner = subprocess.Popen([sys.executable, "-c", BURN], stdin=subprocess.PIPE)  # ours
+        swarm.children.append(Child("burner", burner, tmp_path / "burner.log", "world"))
+        swarm.spawn("agent 1", "agent", ["simulate", "sinusoid"])  # forked: the server reaps
+        window = CpuWindow(lambda: swarm_processes(swarm))
+        window.open()
+        assert burner.stdin is not None
+        burner.stdin.close()  # go: it burns 0.3 s, exits and is reaped before close
+        assert not swarm.expect_exit({"world", "agent"}, timeout=60.0)
+        swarm.check()
+        figures = window.close(ticks=1000)
+    assert set(figures) == {"world", "agent", "total"}
+    assert 250.0 <= figures["world"] <= 400.0, figures  # 0.3 s and its exit
+    assert figures["agent"] >= 100.0, figures  # a whole simulation: well over 0.1 s

@@ -114,13 +114,14 @@ def test_an_exit_report_goes_to_the_process_forked_under_that_pid_not_to_a_later
     server, zygote = scripted
     server.say("pid 4242")
     first = zygote.fork("agent 1", [], os.devnull)
-    server.say("exit 4242 0", "pid 4242")  # it ended, and a new child got its pid
+    server.say("exit 4242 0 0.5", "pid 4242")  # it ended, and a new child got its pid
     second = zygote.fork("agent 2", [], os.devnull)
     assert (first.pid, second.pid) == (4242, 4242)
     assert first.poll() == 0
     assert second.poll() is None
-    server.say("exit 4242 -9")
+    server.say("exit 4242 -9 0.25")
     assert second.wait(timeout=5) == -9 and first.returncode == 0
+    assert (first.cpu_at_exit, second.cpu_at_exit) == (0.5, 0.25)  # its own, not the later one's
 
 
 def test_after_a_fork_times_out_the_server_is_not_used_again(

@@ -8,41 +8,44 @@ few µs per tick per process. Linux only; elsewhere the figures are simply absen
 
 from __future__ import annotations
 
-import os
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Hashable, Iterable, Mapping
+from typing import TypeVar
 
-from tools.procfs import STIME, UTIME, stat_fields
+from tools.procfs import cpu_seconds
 from tools.swarm import Swarm
 
-_TICKS_PER_S = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+Reader = Callable[[], "float | None"]  # CPU seconds of one process so far, None if unknown
+Process = tuple[str, Hashable, Reader]  # (kind, a key naming it, its reader)
+K = TypeVar("K", bound=Hashable)
 
 
-def cpu_seconds(pid: int) -> float | None:
-    """User + system CPU seconds of process ``pid`` so far, or None if it cannot be read."""
-    fields = stat_fields(pid)
-    return None if fields is None else (int(fields[UTIME]) + int(fields[STIME])) / _TICKS_PER_S
+def of_pid(kind: str, pid: int) -> Process:
+    """A process read from /proc by its pid (while it runs, or as a zombie)."""
+    return kind, pid, lambda: cpu_seconds(pid)
 
 
-def snapshot(processes: Iterable[tuple[str, int]]) -> dict[int, tuple[str, float]]:
-    """pid → (kind, CPU seconds) for each (kind, pid) that can be read now."""
+def snapshot(processes: Iterable[Process]) -> dict[Hashable, tuple[str, float]]:
+    """key → (kind, CPU seconds) for each process that can be read now."""
     found = {}
-    for kind, pid in processes:
-        if (seconds := cpu_seconds(pid)) is not None:
-            found[pid] = (kind, seconds)
+    for kind, key, read in processes:
+        if (seconds := read()) is not None:
+            found[key] = (kind, seconds)
     return found
 
 
 def per_tick_us(
-    before: Mapping[int, tuple[str, float]], after: Mapping[int, tuple[str, float]], ticks: int
+    before: Mapping[K, tuple[str, float]],
+    after: Mapping[K, tuple[str, float]],
+    ticks: int,
 ) -> dict[str, float]:
     """CPU µs per tick between two snapshots: for each kind the mean over its processes (an
     agent's figure is one agent's), and ``total`` over every process. Processes missing from
     either snapshot are left out."""
     spent: dict[str, list[float]] = defaultdict(list)
-    for pid, (kind, start) in before.items():
-        if pid in after:
-            spent[kind].append(after[pid][1] - start)
+    for key, (kind, start) in before.items():
+        if key in after:
+            spent[kind].append(after[key][1] - start)
     if ticks <= 0 or not spent:
         return {}
     us = 1e6 / ticks
@@ -52,29 +55,33 @@ def per_tick_us(
 
 
 class CpuWindow:
-    """CPU per tick of a set of processes between :meth:`open` and :meth:`close`."""
+    """CPU per tick of a set of processes between :meth:`open` and :meth:`close`. The
+    processes are the ones found at :meth:`open`; one that exits before :meth:`close` still
+    counts, with the CPU time it had at its exit (its reader must know that figure)."""
 
-    def __init__(self, processes: Callable[[], Iterable[tuple[str, int]]]) -> None:
-        self.processes = processes  # (kind, pid) of every process to account, asked each time
-        self._before: dict[int, tuple[str, float]] | None = None
+    def __init__(self, processes: Callable[[], Iterable[Process]]) -> None:
+        self.processes = processes  # the processes to account, asked at open
+        self._found: list[Process] = []
+        self._before: dict[Hashable, tuple[str, float]] | None = None
         self.figures: dict[str, float] = {}  # per_tick_us(...) once closed
 
     def open(self) -> None:
-        self._before = snapshot(self.processes())
+        self._found = list(self.processes())
+        self._before = snapshot(self._found)
 
     def close(self, ticks: int) -> dict[str, float]:
         if self._before is not None:
-            self.figures = per_tick_us(self._before, snapshot(self.processes()), ticks)
+            self.figures = per_tick_us(self._before, snapshot(self._found), ticks)
         return self.figures
 
 
-def swarm_processes(swarm: Swarm, *, monitor: int | None = None) -> list[tuple[str, int]]:
-    """(kind, pid) of a swarm's running processes: the kind is the role, except that a
-    process named "monitor" is one; the agents' fork server, idle during a run, is left out.
+def swarm_processes(swarm: Swarm, *, monitor: int | None = None) -> list[Process]:
+    """The processes of a swarm still running: the kind is the role, except that a process
+    named "monitor" is one; the agents' fork server, idle during a run, is left out.
     ``monitor``: a pid to account as the monitor (``shoal run`` follows a run in-process)."""
-    found = [
-        ("monitor" if c.name == "monitor" else c.role, c.popen.pid)
+    found: list[Process] = [
+        ("monitor" if c.name == "monitor" else c.role, id(c), c.cpu_seconds)
         for c in swarm.children
-        if c.role != "zygote" and c.popen.poll() is None
+        if c.role != "zygote" and c.poll() is None
     ]
-    return found + ([("monitor", monitor)] if monitor is not None else [])
+    return found + ([of_pid("monitor", monitor)] if monitor is not None else [])

@@ -112,10 +112,11 @@ class Zygote:
         if word in ("pid", "error"):
             self._answers.append((word, rest))
         elif word == "exit":
-            pid, code = (int(x) for x in rest.split())
-            child = self._live.pop(pid, None)
+            pid, code, cpu = rest.split()
+            child = self._live.pop(int(pid), None)
             if child is not None:  # None: the child of a request abandoned (the server closed)
-                child.code = code
+                child.cpu_at_exit = float(cpu)
+                child.code = int(code)
         return line
 
 
@@ -131,6 +132,7 @@ class Forked:
         self.pid = pid
         self.args = args
         self.code: int | None = None  # as reported by the server
+        self.cpu_at_exit: float | None = None  # user + system seconds, reported with the code
         self.started = start_time(pid)  # tells this process from a later one with its pid
 
     @property

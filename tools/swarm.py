@@ -15,6 +15,7 @@ import contextlib
 import ctypes
 import ctypes.util
 import os
+import select
 import shutil
 import signal
 import subprocess
@@ -29,6 +30,7 @@ from typing import IO
 
 from tools.forks import Forked, ForkServerGone, Zygote
 from tools.lines import LineReader
+from tools.procfs import cpu_seconds
 
 _PR_SET_PDEATHSIG = 1
 _PR_SET_NAME = 15
@@ -81,6 +83,42 @@ class Child:
     role: str  # "agent", "world", "logger", "router", "zygote" (the agents' fork server)
     done: bool = False  # expected to have exited
     reader: LineReader | None = None  # its ready pipe's lines, once waited on
+    cpu_at_exit: float | None = None  # user + system seconds, taken just before it was reaped
+
+    def poll(self) -> int | None:
+        """Its exit code, or None while it runs. A process of ours that has exited has its
+        final CPU time read before it is reaped (after that its /proc entry is gone); the
+        fork server reports a forked one's with its exit."""
+        popen = self.popen
+        if isinstance(popen, subprocess.Popen) and popen.returncode is None:
+            with contextlib.suppress(AttributeError, OSError):  # no waitid (macOS): no figure
+                flags = os.WEXITED | os.WNOHANG | os.WNOWAIT  # look, do not reap
+                if os.waitid(os.P_PID, popen.pid, flags) is not None:
+                    self.cpu_at_exit = cpu_seconds(popen.pid)
+        return popen.poll()
+
+    def wait(self, timeout: float) -> int:
+        """Wait at most ``timeout`` s for it to exit (subprocess.TimeoutExpired if it does
+        not); like :meth:`poll`, a process of ours has its final CPU time read first."""
+        popen = self.popen
+        if isinstance(popen, subprocess.Popen) and popen.returncode is None:
+            with contextlib.suppress(AttributeError, OSError):  # no pidfd: plain wait
+                fd = os.pidfd_open(popen.pid)
+                try:
+                    select.select([fd], [], [], max(timeout, 0.0))  # readable once it exits
+                finally:
+                    os.close(fd)
+                if self.poll() is None:
+                    raise subprocess.TimeoutExpired(popen.args, timeout)
+        return popen.wait(timeout=timeout)
+
+    def cpu_seconds(self) -> float | None:
+        """User + system CPU seconds so far, the final figure once it has exited, or None if
+        that is unknown (the figure of a process reaped unseen, or not readable here)."""
+        popen = self.popen
+        if isinstance(popen, Forked):
+            return popen.cpu_at_exit if popen.poll() is not None else cpu_seconds(popen.pid)
+        return self.cpu_at_exit if popen.returncode is not None else cpu_seconds(popen.pid)
 
     def tail(self, lines: int = 12) -> str:
         try:
@@ -176,7 +214,7 @@ class Swarm:
     def check(self) -> None:
         """Raise if a child has exited that was not expected to."""
         for child in self.children:
-            code = child.popen.poll()
+            code = child.poll()
             if code is not None and not child.done:
                 raise ChildFailed(
                     f"{child.name} exited unexpectedly with code {code}:\n{child.tail()}"
@@ -191,8 +229,8 @@ class Swarm:
         deadline = time.monotonic() + timeout
         for c in chosen:
             with contextlib.suppress(subprocess.TimeoutExpired):
-                c.popen.wait(timeout=max(deadline - time.monotonic(), 0.01))
-        return [c for c in chosen if c.popen.poll() is None]
+                c.wait(timeout=max(deadline - time.monotonic(), 0.01))
+        return [c for c in chosen if c.poll() is None]
 
     def stop(self) -> None:
         """Stop every child still running: agents and world, then logger, then router (and the
@@ -200,14 +238,14 @@ class Swarm:
         for roles, grace in STOP_ORDER:
             if "zygote" in roles and self.zygote is not None:
                 self.zygote.close()  # it leaves when its stdin closes; SIGTERM if it does not
-            group = [c for c in self.children if c.role in roles and c.popen.poll() is None]
+            group = [c for c in self.children if c.role in roles and c.poll() is None]
             for c in group:
                 c.done = True
                 _signal(c, signal.SIGTERM)
             deadline = time.monotonic() + grace
             for c in group:
                 try:
-                    c.popen.wait(timeout=max(deadline - time.monotonic(), 0.01))
+                    c.wait(timeout=max(deadline - time.monotonic(), 0.01))
                 except subprocess.TimeoutExpired:
                     _signal(c, signal.SIGKILL)
                     c.popen.wait()

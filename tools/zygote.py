@@ -17,7 +17,8 @@ of the zygote):
   ← ``pid PID``                                      in answer, in request order, once the
                                                      child is set up (named, own session)
   ← ``error WHY``                                    instead, if it could not fork
-  ← ``exit PID CODE``                                when it ends (CODE < 0: killed by -CODE)
+  ← ``exit PID CODE CPU``                            when it ends (CODE < 0: killed by -CODE;
+                                                     CPU: its user + system seconds)
 """
 
 from __future__ import annotations
@@ -102,12 +103,12 @@ def serve() -> None:
     def reap() -> None:
         while True:
             try:
-                pid, status = os.waitpid(-1, os.WNOHANG)
+                pid, status, usage = os.wait4(-1, os.WNOHANG)
             except ChildProcessError:
                 return
             if pid == 0:
                 return
-            say(f"exit {pid} {_exit_code(status)}")
+            say(f"exit {pid} {_exit_code(status)} {usage.ru_utime + usage.ru_stime!r}")
 
     while True:
         try:
