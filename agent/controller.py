@@ -45,6 +45,8 @@ class Memory:
     evasion : the evasive episode in force (Ω_i = 1), or None.
     bid : this agent's current value in Algorithm 1.
     sigma_consensus : the factor agreed in the last finished epoch, applied now.
+    busy : ticks in a row this follower has been busy (evading, filtered or far from its slot).
+    route : a leader's waypoints still to go (with the safety filter), else None.
     """
 
     heading: FloatArray
@@ -208,6 +210,7 @@ class Controller:
                 margin=p.safety_margin,
                 half_separation=p.separation / 2.0,
                 speed_limit=p.speed_limit,
+                previous=tuple(float(c) for c in memory.heading),
             )
             if result.active:
                 out, filtered = result.velocity, True
@@ -255,13 +258,17 @@ class Controller:
         the safety filter) how far the plain law's set-point s_i − e_i/deg_i, where (1) without
         u^o pulls the agent, is per coordinate: ‖e_i‖∞/deg_i (m; 0 without neighbours).
 
-        With the safety filter an episode also ends once neither the agent's heading (the ray
-        of (11)) nor the straight way to that set-point comes within the obstacle's guard
-        r_j + ρ + ε: an agent of a formation that has stopped has no heading, and (11)'s
-        hold-on, which lasts until the obstacle is passed along the heading, kept it off its
-        slot, and its neighbours' edges to it dropped, for good (docs/safety.md, liveness).
-        The set-point, not the direction of (1), is tested: near the slot the sign term turns
-        that direction every tick. The paper mode keeps episodes as (11) has them.
+        With the safety filter an episode also ends once the straight way to that set-point
+        no longer comes within the obstacle's guard r_j + ρ + ε: the obstacle is no longer in
+        the way. (11)'s hold-on lasts until the obstacle is passed along the heading: an agent
+        of a formation that has stopped has no heading, and one that the filter slides round a
+        guard circle has its heading along the circle, so such episodes never ended, kept the
+        agent off its slot and its neighbours' edges to it dropped, for good, and the shifted
+        set-point could lie inside the obstacle, the agent going round and round it (both
+        measured, docs/safety.md). If the heading still points at the obstacle, (11) fires
+        again at the next tick, with a fresh u^o measured from where the agent is now. The
+        set-point, not the direction of (1), is tested: near the slot the
+        sign term turns that direction every tick. The paper mode keeps episodes as (11) has them.
         """
         cfg, p = self.config, self.params
         keep = [k for k, j in enumerate(cfg.senses) if j in neighbours and not neighbours[j].omega]
@@ -281,9 +288,8 @@ class Controller:
         if held is not None and target is not None:
             position = np.asarray(sensing.position, dtype=np.float64)
             guard = held.radius + p.safety_margin + p.epsilon
-            if (
-                segment_distance(held.centre, position, target) > guard
-                and ray_distance(position, memory.heading, held.centre) > guard
+            if segment_distance(held.centre, position, target) > guard and (
+                lag > self.busy_error or ray_distance(position, memory.heading, held.centre) > guard
             ):
                 held = None
         if held is not None:

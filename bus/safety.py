@@ -41,10 +41,12 @@ _LAMBDA_TOLERANCE = 1e-12
 
 @dataclass(frozen=True, slots=True)
 class Row:
-    """One half-space g · u · dt ≥ h: ``normal`` g a unit (dim,) vector, ``bound`` h ≤ 0, m."""
+    """One half-space g · u · dt ≥ h: ``normal`` g a unit (dim,) vector, ``bound`` h ≤ 0, m;
+    ``obstacle``: the row of an obstacle (else of another agent)."""
 
     normal: Vector
     bound: float
+    obstacle: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,7 +85,7 @@ def obstacle_row(position: Vector, centre: Vector, radius: float, margin: float)
     tangent to the guard circle at the point nearest the agent, so it lies wholly outside it.
     """
     normal, dist = _unit_away(position, centre, 1.0)
-    return Row(normal, min(radius + margin, dist) - dist)
+    return Row(normal, min(radius + margin, dist) - dist, obstacle=True)
 
 
 def agent_row(position: Vector, other: Vector, half_separation: float, *, lower: bool) -> Row:
@@ -268,6 +270,41 @@ def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) 
     return tuple(x * (speed / size) for x in turned)
 
 
+def keep_going(
+    nominal: Vector, filtered: Vector, previous: Vector, rows: Sequence[Row], dt: float
+) -> Vector | None:
+    """Against an obstacle, go on the way the agent was going; None when it already does.
+
+    The nominal of a sign-term law turns from tick to tick. Pressed against an obstacle that its
+    nominal pushes into (its slot behind it), the projection keeps the nominal's part along the
+    guard circle, and that part can point one way at one tick and back the next: the agent then
+    shuffles on the spot for good (measured: the main cause of formations that never settled).
+    So for every such tight row (``rows`` are the obstacle rows) where the tangential part of
+    ``filtered`` points against that of ``previous`` (the velocity the agent held last), it is
+    turned to point along the previous one, at the same speed; the normal part is left as it
+    is. Going round a convex guard circle one way, the agent leaves the arc from which its
+    goal lies behind the obstacle. The caller projects the result again: safety does not
+    depend on it."""
+    out = list(filtered)
+    changed = False
+    for r in rows:
+        if not r.obstacle:
+            continue  # agents move: the right-hand rule settles who goes where
+        if abs(_dot(r.normal, filtered) * dt - r.bound) > 1e-9 or _dot(r.normal, nominal) >= 0.0:
+            continue  # not tight, or the nominal does not push into it
+        n = r.normal
+        along = _dot(n, out)
+        tangent = [x - along * g for x, g in zip(out, n, strict=True)]
+        before = _dot(n, previous)
+        was = [x - before * g for x, g in zip(previous, n, strict=True)]
+        if _dot(tangent, was) >= 0.0:
+            continue
+        scale = math.sqrt(_dot(tangent, tangent) / _dot(was, was))
+        out = [along * g + scale * w for g, w in zip(n, was, strict=True)]
+        changed = True
+    return tuple(out) if changed else None
+
+
 def safe_velocity(
     nominal: Vector,
     sensing: Sensing,
@@ -278,13 +315,16 @@ def safe_velocity(
     half_separation: float,
     speed_limit: float,
     right_hand: bool = True,
+    previous: Vector | None = None,
 ) -> Filtered:
     """The whole filter of one agent: cap the nominal at ``speed_limit`` (m/s), project it onto
     the rows of ``sensing``, and where that leaves the agent pressed against a row, project the
     right-hand turn of the nominal instead (:func:`sidestep`; ``right_hand`` False: the bare
-    projection). ``active`` is True when the result differs from the nominal as given (the cap
-    alone counts). The result always meets every row and is never faster than the capped
-    nominal; a feasible nominal comes back unchanged."""
+    projection, and ``previous`` is not used). Given the velocity held at the previous tick
+    (``previous``), an agent pressed against an obstacle goes on along it the way it was
+    going rather than back (:func:`keep_going`). ``active`` is True when the result differs
+    from the nominal as given (the cap alone counts). The result always meets every row and is
+    never faster than the capped nominal; a feasible nominal comes back unchanged."""
     capped = cap_speed(nominal, speed_limit)
     reach = math.hypot(*capped) * dt
     rows = rows_for(sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach)
@@ -295,6 +335,12 @@ def safe_velocity(
             again = project(turned, rows, dt)
             if not again.fallback:
                 out = Filtered(again.velocity, active=True)
+        if previous is not None and any(previous):
+            onward = keep_going(capped, out.velocity, previous, rows, dt)
+            if onward is not None:
+                again = project(onward, rows, dt)
+                if not again.fallback:
+                    out = Filtered(again.velocity, active=True)
     if capped is not nominal and not out.active:
         return Filtered(out.velocity, active=True)
     return out

@@ -31,6 +31,7 @@ class Case:
     margin: float  # ρ
     half_separation: float  # R
     speed_limit: float
+    previous: Vector | None = None  # the velocity held at the last tick (keep_going's input)
 
     def rows(self) -> list[Row]:
         return rows_for(self.sensing, 1, margin=self.margin, half_separation=self.half_separation)
@@ -45,6 +46,7 @@ class Case:
                 margin=self.margin,
                 half_separation=self.half_separation,
                 speed_limit=self.speed_limit,
+                **({} if self.previous is None else {"previous": self.previous}),
             )
         )
 
@@ -86,7 +88,9 @@ def random_case(rng: np.random.Generator, dim: int | None = None) -> Case:
         agent_ids=tuple(range(2, 2 + len(others))),
         agent_positions=tuple(tuple(float(x) for x in q) for q in others),
     )
-    return Case(sensing, nominal, dt, margin, half, speed_limit=float(rng.uniform(0.5, 30.0)))
+    limit = float(rng.uniform(0.5, 30.0))
+    previous = tuple(float(x) for x in rng.normal(size=dim) * rng.uniform(0.0, 10.0))
+    return Case(sensing, nominal, dt, margin, half, limit, previous if rng.random() < 0.7 else None)
 
 
 def cases(seed: int, count: int) -> list[Case]:

@@ -115,6 +115,35 @@ def test_obstacle_ahead_sets_omega_and_pushes_the_agent_away() -> None:
     assert cmd.velocity[1] < 0
 
 
+def test_an_episode_ends_when_the_way_to_the_slot_is_clear_though_the_heading_is_not() -> None:
+    """With the safety filter an agent far from its slot ends its episode once the straight
+    way to the slot passes clear of the guard, even with its heading still at the obstacle
+    (sliding round a guard circle, the heading is along it: the episode never ended and the
+    agent went round and round). An agent in its slot keeps the paper's episode."""
+    scenario = triangle(obstacles=[{"centre": [20.0, 2.3], "radius": 1.0}])
+    c = Controller(scenario.agent_config(2))
+    obstacle = {"ids": (0,), "centres": ((20.0, 2.3),), "radii": (1.0,)}
+    leader, three = (19.0, 0.0), (17.0, -2.0)  # agent 2's slot: (17, 2)
+    heard = {1: state(1, leader), 3: state(3, three)}
+    start = Memory(heading=np.array([1.0, 0.0]), evasion=None, bid=1.0, sigma_consensus=1.0)
+    away = (17.0, 1.6)  # 0.4 m below its slot; the way up is clear, the heading +x is not
+    memory, announced = c.announce(start, sensing(away, **obstacle))
+    assert announced.omega and memory.evasion is not None
+    after, _ = c.act(memory, sensing(away, **obstacle), heard)
+    assert after.evasion is None
+    in_place = (17.0, 2.0)
+    memory, _ = c.announce(start, sensing(in_place, **obstacle))
+    after, _ = c.act(memory, sensing(in_place, **obstacle), heard)
+    assert after.evasion is not None
+    paper = Controller(
+        triangle(obstacles=[{"centre": [20.0, 2.3], "radius": 1.0}],
+                 control={"alpha": 1.0, "beta": 2.0, "safety": "paper"}).agent_config(2)
+    )  # fmt: skip
+    memory, _ = paper.announce(start, sensing(away, **obstacle))
+    after, _ = paper.act(memory, sensing(away, **obstacle), heard)
+    assert after.evasion is not None  # (11) as the paper has it: held until passed
+
+
 def test_agreed_sigma_applies_from_the_next_epoch_for_everyone() -> None:
     scenario = triangle()
     rounds = scenario.rounds

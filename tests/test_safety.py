@@ -106,7 +106,7 @@ def test_every_row_holds_at_rest_for_a_safe_agent() -> None:
 
 def test_rows_have_the_geometry_of_the_theorem() -> None:
     row = obstacle_row((3.0, 4.0), (0.0, 0.0), 2.0, 0.5)
-    assert row == Row((0.6, 0.8), 2.5 - 5.0)
+    assert row == Row((0.6, 0.8), 2.5 - 5.0, obstacle=True)
     inside = obstacle_row((1.0, 0.0), (0.0, 0.0), 2.0, 0.5)  # already inside: may not go deeper
     assert inside.bound == 0.0
     a = agent_row((0.0, 0.0), (4.0, 0.0), 0.5, lower=True)
@@ -140,6 +140,44 @@ def test_a_head_on_nominal_stops_at_the_guard_and_slides_along_it() -> None:
     assert capped.active and capped.velocity == pytest.approx((0.0, 2.0), abs=1e-12)
 
 
+def _behind_an_obstacle(previous: bool, dim: int) -> tuple[int | None, float]:
+    """An agent whose goal lies straight behind an obstacle, driven by the sign-term law
+    v = −β sign(p − goal) per coordinate (which turns from tick to tick) through the filter;
+    returns the tick at which it is within 0.1 m of the goal (None: never, in 600 ticks) and
+    the least clearance beyond the guard."""
+    from bus.types import Sensing
+
+    centre, radius, rho, dt, beta = (0.0,) * dim, 1.0, 0.2, 0.02, 3.0
+    goal = np.array([3.0] + [0.0] * (dim - 1))
+    pos = np.array([-1.2 - 1e-3] + [1e-3] * (dim - 1))  # at the guard, a hair off the axis
+    held = np.zeros(dim)
+    worst = np.inf
+    for k in range(600):
+        if np.linalg.norm(pos - goal) < 0.1:
+            return k, worst
+        nominal = -beta * np.sign(pos - goal)
+        s = Sensing(k, tuple(pos.tolist()), (0,), (centre,), (radius,))
+        v = np.asarray(safe_velocity(tuple(nominal.tolist()), s, 1, dt=dt, margin=rho,
+                                     half_separation=0.2, speed_limit=10.0,
+                                     previous=tuple(held.tolist()) if previous else None,
+                                     ).velocity)  # fmt: skip
+        worst = min(worst, segment_gap(np.zeros(dim), pos, pos + v * dt) - (radius + rho))
+        pos, held = pos + v * dt, v
+    return None, worst
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_an_agent_goes_round_an_obstacle_whose_far_side_holds_its_goal(dim: int) -> None:
+    """Liveness (docs/safety.md): the projection keeps the nominal's part along the guard
+    circle, which the sign term flips from tick to tick; remembering which way it was going
+    (``previous``), the agent goes round, where without it it shuffles on the spot."""
+    arrived, clearance = _behind_an_obstacle(previous=True, dim=dim)
+    assert arrived is not None and arrived < 300, arrived  # 2 m round a 1.2 m guard at 3 m/s
+    assert clearance >= -1e-9
+    stuck, clearance = _behind_an_obstacle(previous=False, dim=dim)
+    assert stuck is None and clearance >= -1e-9
+
+
 def _swarm_run(seed: int, dim: int, steps: int) -> tuple[float, float]:
     """A swarm under an adversarial nominal law (every agent aims at an obstacle or another
     agent, at up to the speed limit), filtered each tick from the world's sensing; returns the
@@ -159,16 +197,17 @@ def _swarm_run(seed: int, dim: int, steps: int) -> tuple[float, float]:
     v_max = min(d - radii.max() - rho, (d - 2 * half) / 2) / dt  # (D), exactly at its limit
     targets = rng.integers(0, n + m, size=n)
     worst_clear, worst_gap = np.inf, np.inf
+    vel = np.zeros_like(pos)
     for k in range(steps):
         sensings = sense_all(k, pos, centres, radii, d)
-        vel = np.empty_like(pos)
+        held, vel = vel, np.empty_like(pos)
         for i in range(n):
             t = targets[i]
             aim = centres[t - n] if t >= n else pos[t]
             nominal = (aim - pos[i]) * rng.uniform(0.5, 50.0) + unit(rng, dim) * rng.uniform(0, 2)
             vel[i] = safe_velocity(
                 tuple(nominal.tolist()), sensings[i], i + 1, dt=dt, margin=rho,
-                half_separation=half, speed_limit=v_max,
+                half_separation=half, speed_limit=v_max, previous=tuple(held[i].tolist()),
             ).velocity  # fmt: skip
         for i in range(n):
             for c, r in zip(centres, radii, strict=True):

@@ -12,6 +12,7 @@ import pytest
 from tools.simulator import simulate
 from world.errors import ScenarioError
 from world.loader import load_scenario, parse_scenario, scenario_from_dict
+from world.metrics import clearances, summarize
 
 # sha256 (first 32 hex digits) of the float64 positions of each built-in as simulated before
 # the safety filter existed (commit 8bf9d1e): the paper mode must keep reproducing them.
@@ -37,10 +38,20 @@ def test_paper_mode_reproduces_the_trajectories_from_before_the_filter(name: str
 
 
 def test_the_filter_is_on_by_default_and_idle_on_the_builtins() -> None:
+    """The built-ins never bring an agent to a guard circle or a neighbour's cell, so the
+    filter never acts on them; without obstacles (the sinusoid) the run is the paper's bit for
+    bit. Every built-in ends in formation, outside every guard."""
     for name in BEFORE_THE_FILTER:
         scn = load_scenario(name)
         assert scn.control.safety == "filter" and scn.params().filtered
-        assert not simulate(scn).filtered.any(), name
+        traj = simulate(scn)
+        assert not traj.filtered.any(), name
+        summary = summarize(scn, traj)
+        assert summary.final_formation_error <= summary.tolerance, name
+        if scn.obstacles:
+            assert float(clearances(scn, traj).min()) >= scn.control.safety_margin - 1e-9, name
+    sinusoid = simulate(load_scenario("sinusoid"))
+    assert _digest(sinusoid.positions) == BEFORE_THE_FILTER["sinusoid"]
 
 
 def _base(**control: object) -> dict[str, object]:
