@@ -62,6 +62,9 @@ def test_fast_leader_warns_but_runs(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["simulate", str(fast), "--json"])
     assert result.exit_code == 0
     assert "warning:" in result.stderr and "Theorem 1" in result.stderr
+    shown = CliRunner().invoke(main, ["simulate", str(fast)])  # the text summary, too
+    assert shown.exit_code == 0, shown.output
+    assert "no bound: β ≤ leader speed" in shown.output and "within bound" not in shown.output
 
 
 def test_scenarios_lists_every_builtin_and_prints_one() -> None:

@@ -15,7 +15,8 @@ from matplotlib.lines import Line2D
 from tools.cli import main
 from tools.figures import FIGURES, RunView, consensus, distances, formation_error, omega_timeline
 from tools.simulator import simulate
-from world.loader import load_scenario
+from world.errors import BetaWarning
+from world.loader import load_scenario, parse_scenario
 from world.metrics import clearances
 
 
@@ -54,6 +55,19 @@ def test_formation_error_marks_the_theorem1_bound_and_the_measured_convergence()
     assert bound == summary.convergence_bound and summary.convergence_bound < 20.0
     assert converged == summary.convergence_time
     assert len(data_lines(ax)) == view.scenario.n - 1  # one per follower
+
+
+def test_a_leader_faster_than_beta_has_no_bound_line_and_still_plots() -> None:
+    """β ≤ the leader's speed: Theorem 1 gives no bound (inf), a warning and a normal run."""
+    with pytest.warns(BetaWarning):
+        scenario = parse_scenario(
+            load_scenario("sinusoid").source.replace("beta: 2.0", "beta: 1.1")
+        )
+    view = RunView(scenario=scenario, traj=simulate(scenario), label="fast")
+    assert view.summary().convergence_bound == float("inf")
+    (ax,) = formation_error(view).axes
+    labels = [str(ln.get_label()) for ln in ax.get_lines()]
+    assert not any(label.startswith("Theorem 1") for label in labels), labels
 
 
 def test_consensus_panel_shows_every_agent_reaching_the_maximum_bid() -> None:

@@ -9,6 +9,7 @@ m, times in s of simulated time. A 3-D run is drawn projected on its x–y plane
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -212,13 +213,14 @@ def formation_error(view: RunView) -> Figure:
         )
     ax.axhline(sc.tolerance, color="k", lw=0.8, ls=":", label=f"tolerance {sc.tolerance:g} m")
     which = "Remark 3" if sc.directed else "Theorem 1"
-    ax.axvline(
-        summary.convergence_bound,
-        color="r",
-        lw=1.2,
-        ls="--",
-        label=f"{which} bound t̄ = {summary.convergence_bound:.2f} s",
-    )
+    if math.isfinite(summary.convergence_bound):
+        ax.axvline(
+            summary.convergence_bound,
+            color="r",
+            lw=1.2,
+            ls="--",
+            label=f"{which} bound t̄ = {summary.convergence_bound:.2f} s",
+        )
     if summary.convergence_time is not None:
         ax.axvline(
             summary.convergence_time,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 
@@ -16,8 +17,11 @@ def _fmt(value: Any, unit: str = "", digits: int = 3) -> str:
 def render_summary(summary: dict[str, Any]) -> str:
     """A short, aligned, human-readable block of the figures that matter."""
     conv = summary["convergence_time"]
-    bound = summary["convergence_bound"]
-    within = conv is not None and conv <= bound
+    bound = summary["convergence_bound"]  # None (JSON's inf): β ≤ the leader's speed
+    if bound is not None and not math.isfinite(bound):
+        bound = None
+    within = conv is not None and bound is not None and conv <= bound
+    shown = f"bound {_fmt(bound, ' s', 2)}" if bound is not None else "no bound: β ≤ leader speed"
     rows = [
         (
             "scenario",
@@ -29,7 +33,7 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("min inter-agent distance", _fmt(summary["min_interagent_distance"], " m")),
         (
             "convergence",
-            f"{_fmt(conv, ' s', 2)} (bound {_fmt(bound, ' s', 2)}, "
+            f"{_fmt(conv, ' s', 2)} ({shown}, "
             f"tolerance {_fmt(summary['tolerance'], ' m')}"
             f"{', within bound' if within else ''})",
         ),
