@@ -224,6 +224,8 @@ def test_leader_killed_stops_everyone_and_ends_the_run(
     ticks = read_ticks(out)
     assert ticks[-1].tick == errors[0].tick == summary["steps"] - 1  # the run ends right there
     assert all(v == 0.0 for vel in ticks[-1].velocities for v in vel)  # everyone held still
+    if clock == "realtime":  # ticks/s counts the ticks run, which cannot outpace the clock
+        assert 0 < summary["ticks_per_s"] <= 1.01 / load_scenario("sinusoid").dt
     print(f"\n{clock}: leader killed after tick {killed_after}, run ended at tick {ticks[-1].tick}")
 
 

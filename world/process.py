@@ -174,7 +174,7 @@ class World:
         )
         summary = {
             **summarize(s, traj).as_dict(),
-            **clock.report(s.steps),
+            **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
             "dropped_messages": self.dropped,
             "actuator_corrections": corrected,
             "aborted": self.aborted,
