@@ -107,12 +107,28 @@ def test_plot_command_writes_every_figure_as_png_and_svg(tmp_path: Path) -> None
     drawn = CliRunner().invoke(main, ["plot", str(log), "--out", str(out)])
     assert drawn.exit_code == 0, drawn.output
     names = sorted(p.name for p in out.iterdir())
-    assert names == sorted(f"sinusoid-{f}.{ext}" for f in FIGURES for ext in ("png", "svg"))
+    assert names == sorted(f"run-{f}.{ext}" for f in FIGURES for ext in ("png", "svg"))  # log's
     for path in out.iterdir():
         if path.suffix == ".png":
             assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         else:
             assert ET.parse(path).getroot().tag.endswith("svg")
+    # Nothing is replaced without --force: not the log, not the figures, not the views.
+    logged = log.read_bytes()
+    again = CliRunner().invoke(
+        main, ["run", str(scenario_file), "--no-foxglove", "--out", str(log)]
+    )
+    assert again.exit_code == 1 and f"{log} exists; pass --force" in again.output
+    assert log.read_bytes() == logged
+    redrawn = CliRunner().invoke(main, ["plot", str(log), "--out", str(out)])
+    assert redrawn.exit_code == 1 and "exists; pass --force" in redrawn.output
+    forced = CliRunner().invoke(main, ["plot", str(log), "--out", str(out), "--force"])
+    assert forced.exit_code == 0, forced.output
+    views = CliRunner().invoke(main, ["export", str(log)])
+    assert views.exit_code == 0, views.output
+    twice = CliRunner().invoke(main, ["export", str(log)])
+    assert twice.exit_code == 1 and "run.foxglove.mcap exists; pass --force" in twice.output
+    assert CliRunner().invoke(main, ["export", str(log), "--force"]).exit_code == 0
 
 
 def test_plot_refuses_a_file_without_a_run(tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ from conftest import client, start_run, unique
 from mcap.reader import make_reader
 
 from tools.cli import main
+from tools.mcap_log import McapLog
 from tools.mcap_read import read_ticks, read_trajectory
 from tools.mcap_salvage import inspect_file, is_finished
 from tools.simulator import simulate
@@ -167,3 +168,21 @@ def test_a_later_scenario_on_the_runs_key_does_not_replace_the_worlds(tmp_path: 
         names = [a.name for a in reader.iter_attachments()]
         counts = reader.get_summary().statistics.channel_message_counts  # type: ignore[union-attr]
     assert names == ["scenario.yaml"] and sum(counts.values()) == 3
+
+
+def test_a_log_is_created_exclusively_so_two_runs_never_share_one(tmp_path: Path) -> None:
+    """Two runs given the same --out: the second logger finds the file taken at the instant it
+    creates it (not by a check made before), and the first run's log stays whole."""
+    path = tmp_path / "run.mcap"
+    with McapLog(path, run="first") as first:
+        first.add("shoal/first/world/event", b"first", 1)
+        with pytest.raises(FileExistsError):
+            McapLog(path, run="second")
+    kept = path.read_bytes()
+    assert is_finished(path) and b"first" in kept
+    with pytest.raises(FileExistsError):
+        McapLog(path, run="third")
+    assert path.read_bytes() == kept
+    with McapLog(path, run="fourth", overwrite=True):
+        pass
+    assert is_finished(path) and b"first" not in path.read_bytes()

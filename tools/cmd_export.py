@@ -9,7 +9,7 @@ import click
 
 from bus.runtime import warn
 from tools.foxglove import ViewOptions
-from tools.foxglove_export import ExportError, ExportResult
+from tools.foxglove_export import ExportError, ExportResult, sibling
 from tools.foxglove_export import export as write_views
 from tools.progress import advance_to, progress_bar
 
@@ -22,7 +22,7 @@ def with_progress(
         return write_views(raw, out, options=options, progress=lambda k, n: advance_to(bar, k, n))
 
 
-def export_beside(raw: Path, *, progress: bool) -> ExportResult | None:
+def export_beside(raw: Path, *, progress: bool) -> ExportResult | None:  # replaces old views
     """``shoal run``'s last step. A failure is reported and not fatal: the raw log is complete
     and untouched either way, and ``shoal export`` can be run on it later."""
     try:
@@ -59,8 +59,11 @@ def describe(result: ExportResult) -> str:
     default=ViewOptions.plot_hz,
     help="Rate of the scalar channels, per simulated second (every tick if above 1/dt).",
 )
+@click.option("--force", is_flag=True, help="Overwrite the views file if it exists.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def export(file: Path, out: Path | None, scene_hz: float, plot_hz: float, as_json: bool) -> None:
+def export(
+    file: Path, out: Path | None, scene_hz: float, plot_hz: float, force: bool, as_json: bool
+) -> None:
     """Write Foxglove views of the run logged in FILE: a 3D scene, agent frames, a log and
     plottable metrics, as Foxglove JSON channels in a new MCAP file (FILE is not changed).
 
@@ -68,6 +71,9 @@ def export(file: Path, out: Path | None, scene_hz: float, plot_hz: float, as_jso
     other rates. Open the views file in Foxglove (docs/foxglove.md).
     """
     options = ViewOptions(scene_hz=scene_hz, plot_hz=plot_hz)
+    target = out or sibling(file)
+    if target.exists() and not force:
+        raise click.ClickException(f"{target} exists; pass --force to overwrite it")
     try:
         result = with_progress(file, out, options)
     except ExportError as exc:

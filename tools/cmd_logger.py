@@ -16,9 +16,11 @@ from tools.options import bus_options, client_config, open_session
 @click.option(
     "--out", "-o", type=click.Path(dir_okay=False, path_type=Path), required=True, help="MCAP file."
 )
+@click.option("--force", is_flag=True, help="Overwrite OUT if it exists.")
 @bus_options
 def logger(
     out: Path,
+    force: bool,
     run_id: str,
     connect: tuple[str, ...],
     zenoh_config: Path | None,
@@ -29,5 +31,8 @@ def logger(
     exit_on_signals()
     conf = client_config(connect, zenoh_config, multicast, secure, LOGGER)
     with open_session(conf, "logger") as session:
-        count = run_logger(session, run=run_id, out=out)
+        try:
+            count = run_logger(session, run=run_id, out=out, overwrite=force)
+        except FileExistsError:
+            raise click.ClickException(f"{out} exists; pass --force to overwrite it") from None
     click.echo(f"{count} messages written to {out}", err=True)

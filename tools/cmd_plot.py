@@ -27,7 +27,8 @@ from tools.progress import progress_bar
     help="Draw only this figure (repeatable): trajectories, distances, formation_error, "
     "consensus, omega.",
 )
-def plot(file: Path, out: Path, only: tuple[str, ...]) -> None:
+@click.option("--force", is_flag=True, help="Overwrite figures that exist already.")
+def plot(file: Path, out: Path, only: tuple[str, ...], force: bool) -> None:
     """Draw the paper's figures from the run recorded in FILE.
 
     \b
@@ -39,7 +40,9 @@ def plot(file: Path, out: Path, only: tuple[str, ...]) -> None:
     """
     with progress_bar(len(only) or 5, "plotting") as bar:
         try:
-            written = draw(file, out, only=only, progress=lambda _name: bar.update(1))
+            written = draw(
+                file, out, only=only, progress=lambda _name: bar.update(1), overwrite=force
+            )
         except PlotError as exc:
             raise click.ClickException(str(exc)) from None
     for path in written:

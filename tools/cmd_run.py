@@ -14,6 +14,7 @@ from bus.secure import Material
 from tools.certs import CertError
 from tools.cmd_export import export_beside
 from tools.cmd_simulate import json_safe, load_for_cli
+from tools.foxglove_export import sibling
 from tools.launch import RunPlan, launch
 from tools.options import check_run_id, drop_options
 from tools.report import render_summary
@@ -56,6 +57,9 @@ from world.loader import builtin_names
     default=True,
     help="Write Foxglove views beside the log, <log>.foxglove.mcap (docs/foxglove.md).",
 )
+@click.option(
+    "--force", is_flag=True, help="Overwrite the log (and its views) if they exist already."
+)
 @drop_options
 @click.option(
     "--secure",
@@ -79,6 +83,7 @@ def run(
     as_json: bool,
     start_timeout: float,
     foxglove: bool,
+    force: bool,
     drop_rate: float,
     drop_seed: int,
     secure: bool,
@@ -121,7 +126,13 @@ def run(
         drop_seed=drop_seed,
         secure=secure or secure_dir is not None,
         secure_dir=secure_dir,
+        overwrite=force,
     )
+    taken = [p for p in (plan.out, sibling(plan.out) if foxglove else None) if p and p.exists()]
+    if taken and not force:
+        raise click.ClickException(
+            f"{taken[0]} exists; pass --force to overwrite it, or --out another file"
+        )
     try:
         result = launch(plan)
     except (ChildFailed, CertError) as exc:

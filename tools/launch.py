@@ -56,6 +56,7 @@ class RunPlan:
     secure: bool = False  # TLS, passwords and the router's ACL (docs/security.md)
     secure_dir: Path | None = None  # their material; None makes a fresh one in the run folder
     measure_cpu: bool = False  # account each process's CPU per tick (tools/cpu.py; the benchmark)
+    overwrite: bool = False  # the logger may replace an existing ``out``
 
 
 @dataclass(frozen=True)
@@ -87,7 +88,10 @@ def launch(plan: RunPlan) -> RunResult:
             swarm.wait_ready(router, plan.start_timeout)
         common = ["--run", plan.run_id, "--connect", endpoint, *secure]
         logger = swarm.spawn(
-            "logger", "logger", ["logger", "--out", str(plan.out), *common], ready_pipe=True
+            "logger",
+            "logger",
+            ["logger", "--out", str(plan.out), *(["--force"] if plan.overwrite else []), *common],
+            ready_pipe=True,
         )
         swarm.spawn(
             "world",

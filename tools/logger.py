@@ -29,12 +29,13 @@ QUIET_S = 0.5  # s without a message that ends the drain after the world's token
 DRAIN_S = 2.0  # s the logger keeps recording, at most, after the world's token vanished
 
 
-def run_logger(session: zenoh.Session, *, run: str, out: Path) -> int:
-    """Record until the run ends; returns the number of messages written."""
+def run_logger(session: zenoh.Session, *, run: str, out: Path, overwrite: bool = False) -> int:
+    """Record until the run ends; returns the number of messages written. FileExistsError if
+    ``out`` exists, unless ``overwrite``."""
     keys = Keys(run)
     presence = Inbox()
     received: deque[tuple[str, bytes, int]] = deque()
-    with McapLog(out, run=run) as log:
+    with McapLog(out, run=run, overwrite=overwrite) as log:
         held = [
             collect(session, keys.everything, received),
             watch_presence(session, keys.alive_world, presence),

@@ -36,11 +36,13 @@ SCHEMAS = {
 class McapLog:
     """An MCAP writer for one run; a context manager whose exit finishes the file."""
 
-    def __init__(self, path: Path, *, run: str) -> None:
+    def __init__(self, path: Path, *, run: str, overwrite: bool = False) -> None:
+        """Raises FileExistsError if ``path`` exists, unless ``overwrite``: two runs given the
+        same file must not both write it (created exclusively, so even at the same instant)."""
         self.path = path
         self.run = run
         path.parent.mkdir(parents=True, exist_ok=True)
-        self._file: BinaryIO = path.open("wb")
+        self._file: BinaryIO = path.open("wb" if overwrite else "xb")
         self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
         self._writer.start(profile="", library="shoal")
         self._schemas: dict[str, int] = {}

@@ -50,8 +50,11 @@ def plot(
     *,
     only: tuple[str, ...] = (),
     progress: Callable[[str], None] | None = None,
+    overwrite: bool = False,
 ) -> list[Path]:
-    """Draw the figures (all, or those named in ``only``) into ``out``; the files written."""
+    """Draw the figures (all, or those named in ``only``) into ``out``, named after the log
+    (``runs/x.mcap`` gives ``x-trajectories.png``, …: two runs never share a figure); the files
+    written. PlotError, before anything is drawn, if one of them exists, unless ``overwrite``."""
     try:
         from tools.figures import FIGURES, RunView
     except ImportError as exc:
@@ -61,16 +64,19 @@ def plot(
     unknown = set(only) - set(FIGURES)
     if unknown:
         raise PlotError(f"unknown figure(s) {sorted(unknown)}; choose from {sorted(FIGURES)}")
+    chosen = [name for name in FIGURES if not only or name in only]
+    stem = path.name.removesuffix(".mcap")
+    targets = {name: [out / f"{stem}-{name}.{fmt}" for fmt in FORMATS] for name in chosen}
+    taken = [t for ts in targets.values() for t in ts if t.exists()]
+    if taken and not overwrite:
+        raise PlotError(f"{taken[0]} exists; pass --force to overwrite it, or --out another folder")
     view = load_view(path)
     assert isinstance(view, RunView)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, draw in FIGURES.items():
-        if only and name not in only:
-            continue
-        figure = draw(view)
-        for fmt in FORMATS:
-            target = out / f"{view.scenario.name}-{name}.{fmt}"
+    for name in chosen:
+        figure = FIGURES[name](view)
+        for target in targets[name]:
             figure.savefig(target, dpi=150, bbox_inches="tight")
             written.append(target)
         if progress is not None:
