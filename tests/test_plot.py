@@ -148,4 +148,4 @@ def test_plot_names_an_unknown_figure_and_refuses_a_file_that_is_not_mcap() -> N
     bogus = CliRunner().invoke(main, ["plot", __file__, "--figure", "nope"])
     assert bogus.exit_code == 1 and "unknown figure(s) ['nope']" in bogus.output
     garbage = CliRunner().invoke(main, ["plot", __file__])
-    assert garbage.exit_code == 1 and "not a readable MCAP file" in garbage.output
+    assert garbage.exit_code == 1 and "not an MCAP file" in garbage.output

@@ -8,6 +8,7 @@ import os
 import signal
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from conftest import client, start_run, unique
@@ -186,3 +187,53 @@ def test_a_log_is_created_exclusively_so_two_runs_never_share_one(tmp_path: Path
     with McapLog(path, run="fourth", overwrite=True):
         pass
     assert is_finished(path) and b"first" not in path.read_bytes()
+
+
+def _bad_logs(tmp_path: Path) -> dict[str, Path]:
+    """Files a new user may hand to shoal as logs: random bytes, text, nothing, and a real log
+    cut in the middle (what a killed logger leaves)."""
+    rng = np.random.default_rng(7)
+    files = {
+        "random": rng.integers(0, 256, size=5000, dtype=np.uint8).tobytes(),
+        "text": b"not a log\n",
+        "empty": b"",
+    }
+    whole = tmp_path / "whole.mcap"
+    with McapLog(whole, run="cut") as log:
+        for k in range(2000):
+            log.add("shoal/cut/world/tick", rng.bytes(64), k)
+    files["cut"] = whole.read_bytes()[: whole.stat().st_size // 2]
+    paths = {}
+    for name, data in files.items():
+        paths[name] = tmp_path / f"{name}.mcap"
+        paths[name].write_bytes(data)
+    return paths
+
+
+READERS = {
+    "verify": [],
+    "plot": ["--out", "{tmp}/figs"],
+    "export": ["-o", "{tmp}/views.mcap"],
+    "replay": ["--connect", "tcp/127.0.0.1:9"],  # the file is judged before any connection
+    "inspect": [],
+    "recover": ["-o", "{tmp}/fixed.mcap"],
+}
+
+
+@pytest.mark.parametrize("command", sorted(READERS))
+def test_a_file_that_is_no_log_gets_one_clear_error_and_a_non_zero_exit(
+    command: str, tmp_path: Path
+) -> None:
+    for kind, path in _bad_logs(tmp_path).items():
+        extra = [a.replace("{tmp}", str(tmp_path)) for a in READERS[command]]
+        result = CliRunner().invoke(main, [command, str(path), *extra])
+        if kind == "cut" and command in ("inspect", "recover"):
+            assert result.exit_code == 0, result.output  # what these two are for
+            continue
+        assert result.exit_code == 1, (kind, result.output)
+        assert result.exception is None or isinstance(result.exception, SystemExit), kind
+        expected = "not a finished MCAP file" if kind == "cut" else "not an MCAP file"
+        assert f"Error: {path}: {expected}" in result.output, (kind, result.output)
+        assert not (tmp_path / "fixed.mcap").exists(), kind  # nothing written from it
+    if command == "recover":  # the cut log, and only it, was recovered
+        assert is_finished(tmp_path / "fixed.mcap")

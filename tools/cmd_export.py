@@ -72,7 +72,7 @@ def export(
     """
     options = ViewOptions(scene_hz=scene_hz, plot_hz=plot_hz)
     target = out or sibling(file)
-    if target.exists() and not force:
+    if target.exists() and not force and target.resolve() != file.resolve():
         raise click.ClickException(f"{target} exists; pass --force to overwrite it")
     try:
         result = with_progress(file, out, options)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from tools.mcap_salvage import inspect_file
+from tools.mcap_salvage import LogError, inspect_file
 
 
 @click.command()
@@ -16,7 +16,10 @@ from tools.mcap_salvage import inspect_file
 def inspect(file: Path, as_json: bool) -> None:
     """Channels, message counts, duration, scenario, summary metrics, and whether FILE was
     finished (a killed logger leaves it unfinished: see `shoal recover`)."""
-    info = inspect_file(file)
+    try:
+        info = inspect_file(file)
+    except LogError as exc:
+        raise click.ClickException(str(exc)) from None
     if as_json:
         click.echo(json.dumps(info))
         return

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from tools.mcap_salvage import LogError
 from tools.mcap_salvage import recover as salvage
 
 
@@ -19,4 +20,10 @@ def recover(broken: Path, out: Path) -> None:
     """Copy every complete chunk of BROKEN into a finished file OUT."""
     if out.resolve() == broken.resolve():
         raise click.BadParameter("write the recovered file somewhere else", param_hint="--out")
-    click.echo(json.dumps(salvage(broken, out)))
+    try:
+        result = salvage(broken, out)
+    except LogError as exc:
+        raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"{out}: cannot be written ({exc.strerror})") from None
+    click.echo(json.dumps(result))

@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from bus.runtime import exit_on_signals
+from tools.mcap_salvage import LogError, check_log
 from tools.options import client_config, open_session
 from tools.progress import progress_bar
 from tools.replay import Selection
@@ -38,6 +39,10 @@ def replay(
     """Republish FILE's raw channels on their original Zenoh keys, in order, at their original
     pace (times RATE)."""
     exit_on_signals()
+    try:
+        check_log(file)  # before connecting: a bad file is said at once, router or not
+    except LogError as exc:
+        raise click.ClickException(str(exc)) from None
     selection = Selection(
         tuple(t for t in topics.split(",") if t), regex or None, exclude_regex or None
     )

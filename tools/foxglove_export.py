@@ -37,7 +37,7 @@ from bus import codec
 from bus.errors import DecodeError
 from bus.types import Event, TickRecord
 from tools.foxglove import SCHEMAS_VERSION, TOPICS, RunLog, ViewOptions, schema_text, views
-from tools.mcap_salvage import is_finished
+from tools.mcap_salvage import LogError, check_log
 from world.errors import ScenarioError
 from world.loader import parse_scenario
 
@@ -85,15 +85,14 @@ def sibling(raw: Path) -> Path:
 
 def read_source(path: Path) -> Source:
     """The world's channels of a finished raw log."""
-    if not is_finished(path):
-        raise ExportError(
-            f"{path}: not a finished MCAP file (a killed logger?); "
-            f"`shoal recover {path} -o FIXED.mcap` first, then export FIXED.mcap"
-        )
+    try:
+        check_log(path)
+    except LogError as exc:
+        raise ExportError(str(exc)) from None
     src = Source()
     with path.open("rb") as f:
         summary = make_reader(f).get_summary()
-        assert summary is not None  # is_finished
+        assert summary is not None  # check_log: finished
         wanted = {
             c.id: c
             for c in summary.channels.values()

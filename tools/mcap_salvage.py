@@ -19,6 +19,30 @@ from mcap.records import Attachment, Channel, McapRecord, Message, Metadata, Sch
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+MAGIC = b"\x89MCAP0\r\n"  # what every MCAP file starts with (and a finished one ends with)
+
+
+class LogError(ValueError):
+    """A file that cannot be read as a run's log; the message names it and says what to do."""
+
+
+def check_log(path: Path, *, finished: bool = True) -> None:
+    """Raise :class:`LogError` unless ``path`` is a readable MCAP file and, with ``finished``,
+    a finished one (an unfinished log, from a killed logger, needs ``shoal recover`` first)."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(len(MAGIC))
+    except OSError as exc:
+        raise LogError(f"{path}: cannot be read ({exc.strerror})") from None
+    if head != MAGIC:
+        what = "empty" if not head else "it does not start with MCAP's magic bytes"
+        raise LogError(f"{path}: not an MCAP file ({what})")
+    if finished and not is_finished(path):
+        raise LogError(
+            f"{path}: not a finished MCAP file (a killed logger?); "
+            f"`shoal recover {path} -o FIXED.mcap` first, then use FIXED.mcap"
+        )
+
 
 def is_finished(path: Path) -> bool:
     """True if the file has its summary section (the writer called finish())."""
@@ -77,7 +101,9 @@ def _note(scan: Scan, record: McapRecord) -> None:
 
 
 def inspect_file(path: Path) -> dict[str, Any]:
-    """Channels, message counts, duration, scenario, summary and whether the file is finished."""
+    """Channels, message counts, duration, scenario, summary and whether the file is finished;
+    LogError if it is not an MCAP file at all."""
+    check_log(path, finished=False)
     scan = Scan()
     for _ in records(path, scan):
         pass
@@ -102,7 +128,9 @@ def inspect_file(path: Path) -> dict[str, Any]:
 
 
 def recover(src: Path, dst: Path) -> dict[str, Any]:
-    """Copy every complete record of ``src`` into a finished file ``dst``."""
+    """Copy every complete record of ``src`` into a finished file ``dst``; LogError (and
+    nothing written) if ``src`` is not an MCAP file at all."""
+    check_log(src, finished=False)
     scan = Scan()
     schema_ids: dict[int, int] = {}
     channel_ids: dict[int, int] = {}

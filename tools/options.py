@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -96,8 +97,14 @@ def client_config(
         raise click.ClickException(str(exc)) from None
 
 
+_RUST_SOURCE = re.compile(r"\s+at \S+\.rs:\d+\.?")  # "… Timeout! at /root/.cargo/…/x.rs:388."
+
+
 def open_session(conf: zenoh.Config, what: str) -> zenoh.Session:
     try:
         return zenoh.open(conf)
     except Exception as exc:  # zenoh.ZError: e.g. no router at the endpoint
-        raise click.ClickException(f"{what}: cannot open a Zenoh session: {exc}") from None
+        why = _RUST_SOURCE.sub("", str(exc)).rstrip(".")
+        raise click.ClickException(
+            f"{what}: cannot open a Zenoh session: {why} (is a router running there?)"
+        ) from None

@@ -8,6 +8,7 @@ from pathlib import Path
 from mcap.exceptions import McapError
 
 from tools.mcap_read import read_documents, read_trajectory
+from tools.mcap_salvage import LogError, check_log
 from world.errors import ScenarioError
 from world.loader import parse_scenario
 
@@ -24,12 +25,12 @@ def load_view(path: Path) -> object:
     from tools.figures import RunView  # matplotlib is an optional extra; import on use
 
     try:
+        check_log(path)
         docs = read_documents(path)
+    except LogError as exc:
+        raise PlotError(str(exc)) from None
     except (McapError, OSError) as exc:
-        raise PlotError(
-            f"{path}: not a readable MCAP file ({exc}); a killed run's log needs "
-            "`shoal recover` first"
-        ) from None
+        raise PlotError(f"{path}: not a readable MCAP file ({exc})") from None
     if "scenario" not in docs:
         raise PlotError(f"{path}: no scenario recorded in the log")
     try:

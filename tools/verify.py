@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tools.mcap_read import read_documents, read_ticks
+from tools.mcap_salvage import LogError, check_log
 from tools.simulator import run
 from world.errors import ScenarioError
 from world.loader import parse_scenario
@@ -31,6 +32,10 @@ class Verdict:
 
 def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) -> Verdict:
     """``progress(tick, last_tick)`` is called after each re-simulated tick."""
+    try:
+        check_log(path)
+    except LogError as exc:
+        raise VerifyError(str(exc)) from None
     docs = read_documents(path)
     if "scenario" not in docs:
         raise VerifyError(f"{path}: no scenario recorded in the log")
