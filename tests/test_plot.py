@@ -129,6 +129,17 @@ def test_plot_command_writes_every_figure_as_png_and_svg(tmp_path: Path) -> None
     twice = CliRunner().invoke(main, ["export", str(log)])
     assert twice.exit_code == 1 and "run.foxglove.mcap exists; pass --force" in twice.output
     assert CliRunner().invoke(main, ["export", str(log), "--force"]).exit_code == 0
+    # An output that cannot be written: one clear error each, no traceback.
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    for command in (
+        ["export", str(log), "-o", str(blocker / "views.mcap")],
+        ["plot", str(log), "--out", str(blocker / "figs")],
+        ["recover", str(log), "-o", str(blocker / "fixed.mcap")],
+        ["run", str(scenario_file), "--out", str(blocker / "run.mcap")],
+    ):
+        failed = CliRunner().invoke(main, command)
+        assert failed.exit_code == 1 and "cannot be written" in failed.output, failed.output
 
 
 def test_plot_refuses_a_file_without_a_run(tmp_path: Path) -> None:

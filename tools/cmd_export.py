@@ -78,6 +78,8 @@ def export(
         result = with_progress(file, out, options)
     except ExportError as exc:
         raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"{target}: cannot be written ({exc.strerror})") from None
     if as_json:
         fields = ("messages", "ticks", "seconds", "bytes")
         click.echo(json.dumps({"out": str(result.out)} | {k: getattr(result, k) for k in fields}))

@@ -35,4 +35,6 @@ def logger(
             count = run_logger(session, run=run_id, out=out, overwrite=force)
         except FileExistsError:
             raise click.ClickException(f"{out} exists; pass --force to overwrite it") from None
+        except OSError as exc:
+            raise click.ClickException(f"{out}: cannot be written ({exc.strerror})") from None
     click.echo(f"{count} messages written to {out}", err=True)

@@ -45,5 +45,7 @@ def plot(file: Path, out: Path, only: tuple[str, ...], force: bool) -> None:
             )
         except PlotError as exc:
             raise click.ClickException(str(exc)) from None
+        except OSError as exc:
+            raise click.ClickException(f"{out}: cannot be written ({exc.strerror})") from None
     for path in written:
         click.echo(str(path))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import uuid
 from pathlib import Path
 
@@ -133,6 +134,13 @@ def run(
         raise click.ClickException(
             f"{taken[0]} exists; pass --force to overwrite it, or --out another file"
         )
+    try:  # the logger creates the file; say now, not after the swarm is up, if it cannot
+        plan.out.parent.mkdir(parents=True, exist_ok=True)
+        writable = os.access(plan.out.parent, os.W_OK)
+    except OSError:
+        writable = False
+    if not writable:
+        raise click.ClickException(f"{plan.out}: cannot be written (its folder is not writable)")
     try:
         result = launch(plan)
     except (ChildFailed, CertError) as exc:
