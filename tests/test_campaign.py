@@ -196,3 +196,16 @@ def test_bad_obstacle_count_is_a_usage_error() -> None:
     result = CliRunner().invoke(main, ["campaign", "--obstacles", "five"])
     assert result.exit_code == 2
     assert "expected N or LOW-HIGH" in result.output
+
+
+def test_the_campaign_says_up_front_how_many_runs_its_options_make() -> None:
+    """--fields counts the inside fields; the outside sets, on by default, multiply it."""
+    result = CliRunner().invoke(
+        main, ["campaign", "--fields", "1", "--obstacles", "1", "--outside-fields", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    runs = 1 + len(BREACHES)
+    assert result.stderr.startswith(
+        f"{runs} runs: 1 inside the assumptions and 1 for each of the {len(BREACHES)} broken "
+        "ones (--no-outside: inside only)"
+    )

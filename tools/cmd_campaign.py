@@ -21,7 +21,7 @@ from tools.report import render_summary
 from tools.simulator import simulate
 from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from world.errors import ScenarioError
-from world.fields import FieldOptions, breaches, load_field
+from world.fields import BREACHES, FieldOptions, breaches, load_field
 from world.metrics import summarize
 from world.scenario import Scenario
 
@@ -117,6 +117,13 @@ def campaign(
         return
     modes = ("filter", "paper") if safety == "both" else (safety,)
     todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
+    if not as_json:  # said up front: --fields counts the inside fields only
+        sets = f"{count} inside the assumptions"
+        if outside:
+            sets += f" and {outside_fields} for each of the {len(BREACHES)} broken ones"
+        runs = f", each {' and '.join(modes)}" if len(modes) > 1 else ""
+        hint = "" if not outside else " (--no-outside: inside only)"
+        click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
     start = time.perf_counter()
     with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
         outcomes = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
