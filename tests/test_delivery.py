@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import pytest
 from click.testing import CliRunner
+from conftest import shortened
 
 from agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
 from bus.types import AgentState
@@ -57,3 +61,30 @@ def test_shoal_run_refuses_drops_in_lockstep() -> None:
     result = CliRunner().invoke(main, ["run", "sinusoid", "--drop-rate", "0.1"])
     assert result.exit_code == 2
     assert "--drop-rate" in result.output and "realtime" in result.output
+
+
+def test_shoal_run_refuses_a_speed_in_lockstep_as_it_refuses_drops() -> None:
+    result = CliRunner().invoke(main, ["run", "sinusoid", "--speed", "2"])
+    assert result.exit_code == 2
+    assert "--speed" in result.output and "realtime" in result.output
+
+
+def test_injected_drops_are_reported_by_shoal_run(tmp_path: Path) -> None:
+    """--drop-rate's drops, counted by every agent, are totalled in the run's summary."""
+    scenario = shortened(tmp_path, "sinusoid", 1.0)
+    result = CliRunner().invoke(
+        main,
+        ["run", str(scenario), "--mode", "realtime", "--drop-rate", "0.3", "--json",
+         "--no-foxglove", "--out", str(tmp_path / "run.mcap")],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    drops = json.loads(result.stdout)["injected_drops"]
+    assert drops["agents"] == 5 and drops["offered"] > 100
+    assert 0.2 < drops["dropped"] / drops["offered"] < 0.4  # seeded draws at p = 0.3
+    text = CliRunner().invoke(
+        main,
+        ["run", str(scenario), "--mode", "realtime", "--drop-rate", "0.3", "--no-foxglove",
+         "--out", str(tmp_path / "again.mcap")],
+    )  # fmt: skip
+    assert text.exit_code == 0, text.output
+    assert "injected drops" in text.output and "thrown away (--drop-rate 0.3" in text.output

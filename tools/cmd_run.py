@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import uuid
+from collections.abc import Sequence
 from pathlib import Path
 
 import click
@@ -21,6 +23,18 @@ from tools.options import check_run_id, drop_options
 from tools.report import render_summary
 from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from world.loader import builtin_names
+
+_DROPS = re.compile(r"injected drops (\d+) of (\d+)")
+
+
+def injected_drops(stats: Sequence[str]) -> dict[str, int]:
+    """The fault injection's totals over the agents' stats lines (agent/process.py, stats)."""
+    found = [m for line in stats if (m := _DROPS.search(line))]
+    return {
+        "dropped": sum(int(m.group(1)) for m in found),
+        "offered": sum(int(m.group(2)) for m in found),
+        "agents": len(found),
+    }
 
 
 @click.command()
@@ -102,6 +116,12 @@ def run(
             "would stall it forever",
             param_hint="--drop-rate",
         )
+    if speed != 1.0 and mode != "realtime":
+        raise click.BadParameter(
+            "needs --mode realtime: a lockstep run goes as fast as its processes can, and "
+            "its result does not depend on time",
+            param_hint="--speed",
+        )
     scn = load_for_cli(scenario)
     if secure and connect and secure_dir is None:
         raise click.BadParameter(
@@ -147,8 +167,10 @@ def run(
         raise click.ClickException(str(exc)) from None
     views = export_beside(plan.out, progress=not as_json) if foxglove else None
     summary = json_safe(result.summary)
+    drops = injected_drops(result.agent_stats) if drop_rate > 0 else None
     if as_json:
         extra = {
+            "injected_drops": drops,
             "mode": mode,
             "wall_s": round(result.wall_s, 3),
             "startup_s": result.startup_s,
@@ -163,6 +185,11 @@ def run(
             f"{'processes':<24}  {result.processes}, {result.wall_s:.1f} s wall, "
             f"all agents up in {result.startup_s:.1f} s"
         )
+        if drops is not None:
+            click.echo(
+                f"{'injected drops':<24}  {drops['dropped']} of {drops['offered']} neighbour "
+                f"states thrown away (--drop-rate {drop_rate:g}, --drop-seed {drop_seed})"
+            )
         click.echo(f"{'log':<24}  {plan.out}")
         if plan.secure:
             click.echo(f"{'secured':<24}  TLS (mutual), passwords, router ACL for run {run_id}")

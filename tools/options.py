@@ -29,7 +29,7 @@ def drop_options(func: F) -> F:
         default=0.0,
         envvar="SHOAL_DROP_RATE",
         help="Fault injection, realtime only: throw away this fraction of incoming neighbour "
-        "states (seeded, counted, reported on stderr at exit).",
+        "states (seeded, counted; shoal run totals them in its summary, `injected_drops`).",
     )(func)
 
 
