@@ -257,6 +257,44 @@ def test_shoal_run_exits_1_naming_the_leader_when_it_dies(router: str, tmp_path:
     assert processes_mentioning(f"--run {run}") == []
 
 
+@pytest.mark.parametrize("how", ["logger killed", "ctrl-c"])
+def test_a_run_that_does_not_finish_says_where_its_log_is(
+    how: str, router: str, tmp_path: Path
+) -> None:
+    """A killed logger or a Ctrl-C: shoal run names the log, and for an unfinished one says
+    how to recover it; no dangling "code -9:" with nothing after it."""
+    run, out = unique("where"), tmp_path / "run.mcap"
+    scenario = shortened(tmp_path, "sinusoid", 20.0)
+    proc = subprocess.Popen(
+        [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--no-foxglove",
+         "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    try:
+        with client(router) as session:
+            Watcher(session, run).until_tick(100)
+        if how == "ctrl-c":
+            proc.send_signal(signal.SIGINT)
+        else:
+            (logger,) = [
+                p
+                for p in descendants(proc.pid)
+                if b"\0tools\0logger\0" in Path(f"/proc/{p}/cmdline").read_bytes()
+            ]
+            os.kill(logger, signal.SIGKILL)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        stop(proc)
+    assert proc.returncode != 0
+    assert f"the log of the run so far: {out}" in stderr, stderr
+    if how == "logger killed":
+        assert f"shoal recover {out} -o FIXED.mcap" in stderr and "-9:" not in stderr, stderr
+    else:
+        assert "shoal run: interrupted" in stderr, stderr
+
+
 # -- the world killed --------------------------------------------------------------------------
 
 

@@ -12,13 +12,14 @@ from pathlib import Path
 import click
 
 from bus.errors import WireError
-from bus.runtime import exit_on_signals
+from bus.runtime import exit_on_signals, warn
 from bus.secure import Material
 from tools.certs import CertError
 from tools.cmd_export import export_beside
 from tools.cmd_simulate import json_safe, load_for_cli
 from tools.foxglove_export import sibling
 from tools.launch import RunPlan, launch
+from tools.mcap_salvage import is_finished
 from tools.options import check_run_id, drop_options
 from tools.report import render_summary
 from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
@@ -35,6 +36,18 @@ def injected_drops(stats: Sequence[str]) -> dict[str, int]:
         "offered": sum(int(m.group(2)) for m in found),
         "agents": len(found),
     }
+
+
+def _where_the_log_is(out: Path) -> str:
+    """For a run that did not finish: where its log is and what to do with it."""
+    if not out.exists():
+        return ""
+    if is_finished(out):
+        return f"\nthe log of the run so far: {out}"
+    return (
+        f"\nthe log of the run so far: {out}, unfinished; "
+        f"`shoal recover {out} -o FIXED.mcap` keeps every complete chunk"
+    )
 
 
 @click.command()
@@ -164,7 +177,12 @@ def run(
     try:
         result = launch(plan)
     except (ChildFailed, CertError) as exc:
-        raise click.ClickException(str(exc)) from None
+        why = str(exc).rstrip(": \n")  # a killed child has no last words: no dangling colon
+        raise click.ClickException(f"{why}{_where_the_log_is(plan.out)}") from None
+    except SystemExit as exc:  # Ctrl-C or SIGTERM: the swarm has been stopped in order
+        if plan.out.exists():
+            warn(f"shoal run: interrupted{_where_the_log_is(plan.out)}")
+        raise SystemExit(exc.code) from None
     views = export_beside(plan.out, progress=not as_json) if foxglove else None
     summary = json_safe(result.summary)
     drops = injected_drops(result.agent_stats) if drop_rate > 0 else None
