@@ -16,6 +16,7 @@ from tools.cli import main
 from tools.figures import FIGURES, RunView, consensus, distances, formation_error, omega_timeline
 from tools.simulator import simulate
 from world.errors import BetaWarning
+from world.fields import FieldOptions, make_field
 from world.loader import load_scenario, parse_scenario
 from world.metrics import clearances
 
@@ -41,6 +42,25 @@ def test_distances_show_the_closest_approach_the_metrics_measure() -> None:
     assert clear == summary.min_clearance == float(clearances(view.scenario, view.traj).min())
     # one line per graph edge plus the closest non-neighbours: every pair is covered
     assert len(data_lines(top)) == len(view.scenario.edges) + 1
+
+
+def test_a_collision_shows_below_zero_against_lines_at_their_true_values() -> None:
+    """A run that collides (field 0 of the campaign, Algorithm 2 alone): the clearance axis is
+    not clipped at 0, and the lines are the agent radius (collision) and the guard ρ."""
+    field = make_field(load_scenario("obstacles"), 0, options=FieldOptions(safety="paper"))
+    view = RunView(scenario=field, traj=simulate(field), label="collides")
+    worst = float(clearances(field, view.traj).min())
+    assert worst < 0  # the agent went into the obstacle
+    _top, bottom = distances(view).axes
+    assert bottom.get_ylim()[0] <= worst
+    lines = {
+        str(ln.get_label()): float(ln.get_ydata()[0])
+        for ln in bottom.get_lines()
+        if len(ln.get_xdata()) == 2
+    }
+    assert lines[f"collision (radius {field.agent_radius:g} m)"] == field.agent_radius
+    rho = field.control.safety_margin
+    assert lines[f"guard ρ = {rho:g} m"] == rho and rho != field.agent_radius
 
 
 def test_formation_error_marks_the_theorem1_bound_and_the_measured_convergence() -> None:

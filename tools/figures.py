@@ -151,7 +151,9 @@ def _edge_columns(sc: Scenario) -> list[tuple[int, int]]:
 
 def distances(view: RunView) -> Figure:
     """Fig. 2b / 3b: distance between every pair of neighbours over time against the collision
-    distance 2ρ, and (with obstacles) each agent's clearance to the nearest obstacle against ρ."""
+    distance (twice the agent radius) and the filter's separation, and (with obstacles) each
+    agent's clearance to the nearest obstacle's edge against the agent radius (collision) and
+    the guard ρ; the axes reach below zero when something went through something."""
     sc, t = view.scenario, view.times
     panels = 2 if sc.obstacles else 1
     fig = _figure(9.0, 3.4 * panels)
@@ -173,9 +175,14 @@ def distances(view: RunView) -> Figure:
             ls="-.",
             label="closest non-neighbours",
         )
-    ax.axhline(2 * sc.agent_radius, color="r", lw=1.0, ls="--", label="collision (2ρ)")
+    a = sc.agent_radius
+    ax.axhline(2 * a, color="r", lw=1.0, ls="--", label=f"collision (2 × radius {a:g} m)")
+    if sc.params().filtered:
+        ax.axhline(
+            sc.separation, color="r", lw=0.8, ls=":", label=f"separation {sc.separation:g} m"
+        )
     ax.set_ylabel("inter-agent distance (m)")
-    ax.set_ylim(bottom=0)
+    ax.set_ylim(bottom=min(0.0, float(dist.min())))
     ax.legend(fontsize="small", ncol=4, loc="best")
     ax.set_title(f"{view.label}: distances between neighbours (min {dist.min():.3f} m)")
     if sc.obstacles:
@@ -183,10 +190,12 @@ def distances(view: RunView) -> Figure:
         ax = axes[1]
         for i in range(sc.n):
             ax.plot(t, clear[:, i], color=colour(i), lw=1.0, label=agent_name(i))
-        ax.axhline(sc.agent_radius, color="r", lw=1.0, ls="--", label="collision (ρ)")
+        ax.axhline(a, color="r", lw=1.0, ls="--", label=f"collision (radius {a:g} m)")
+        rho = sc.control.safety_margin
+        ax.axhline(rho, color="r", lw=0.8, ls=":", label=f"guard ρ = {rho:g} m")
         ax.set_ylabel("clearance to nearest obstacle (m)")
         ax.set_yscale("symlog", linthresh=1.0)
-        ax.set_ylim(bottom=0)
+        ax.set_ylim(bottom=min(0.0, float(clear.min())))  # a collision shows below zero
         ax.legend(fontsize="small", ncol=3, loc="best")
         ax.set_title(f"clearance to obstacles (min {clear.min():.3f} m)")
     for ax in axes:
