@@ -10,10 +10,19 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from matplotlib.collections import PolyCollection
+from matplotlib.colors import to_rgba
 from matplotlib.lines import Line2D
 
 from tools.cli import main
-from tools.figures import FIGURES, RunView, consensus, distances, formation_error, omega_timeline
+from tools.figures import (
+    FIGURES,
+    RunView,
+    colour,
+    consensus,
+    distances,
+    formation_error,
+    omega_timeline,
+)
 from tools.simulator import simulate
 from world.errors import BetaWarning
 from world.fields import FieldOptions, make_field
@@ -61,6 +70,13 @@ def test_a_collision_shows_below_zero_against_lines_at_their_true_values() -> No
     assert lines[f"collision (radius {field.agent_radius:g} m)"] == field.agent_radius
     rho = field.control.safety_margin
     assert lines[f"guard ρ = {rho:g} m"] == rho and rho != field.agent_radius
+
+
+def test_no_follower_wears_the_leaders_colour_however_many_there_are() -> None:
+    leader = to_rgba(colour(0))
+    followers = [to_rgba(colour(k)) for k in range(1, 60)]
+    assert leader not in followers
+    assert len(set(followers[:18])) == 18  # the first 18 followers are told apart
 
 
 def test_formation_error_marks_the_theorem1_bound_and_the_measured_convergence() -> None:

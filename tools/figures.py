@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
@@ -52,8 +53,11 @@ class RunView:
 
 
 def colour(agent: int) -> Any:
-    """One colour per agent, the same in every figure."""
-    return f"C{agent % 10}"
+    """One colour per agent (array column), the same in every figure: the leader's (C0) is its
+    own; followers take the 18 colours of tab20 unlike it (its two blues skipped), in turn."""
+    if agent == 0:
+        return "C0"
+    return colormaps["tab20"](2 + (agent - 1) % 18)
 
 
 def agent_name(column: int) -> str:
