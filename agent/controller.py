@@ -266,9 +266,11 @@ class Controller:
         agent off its slot and its neighbours' edges to it dropped, for good, and the shifted
         set-point could lie inside the obstacle, the agent going round and round it (both
         measured, docs/safety.md). If the heading still points at the obstacle, (11) fires
-        again at the next tick, with a fresh u^o measured from where the agent is now. The
-        set-point, not the direction of (1), is tested: near the slot the
-        sign term turns that direction every tick. The paper mode keeps episodes as (11) has them.
+        again at the next tick, with a fresh u^o measured from where the agent is now. An
+        agent in its slot (‖e_i‖∞/deg_i within the chattering band) keeps (11)'s rule: there
+        the heading is the formation's. The set-point, not the direction of (1), is tested:
+        near the slot the sign term turns that direction every tick. The paper mode keeps
+        episodes as (11) has them.
         """
         cfg, p = self.config, self.params
         keep = [k for k, j in enumerate(cfg.senses) if j in neighbours and not neighbours[j].omega]

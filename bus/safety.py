@@ -234,6 +234,11 @@ def _right_of(heading: Vector) -> Vector:
     return (hy / norm, -hx / norm, 0.0)
 
 
+def _tight(row: Row, velocity: Vector, dt: float) -> bool:
+    """Whether ``velocity`` held for ``dt`` lies on ``row``'s boundary (within 1e-9 m)."""
+    return abs(_dot(row.normal, velocity) * dt - row.bound) <= 1e-9
+
+
 def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) -> Vector | None:
     """The right-hand rule against deadlock, or None when it does not apply.
 
@@ -253,8 +258,8 @@ def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) 
         return None
     push = [0.0] * len(nominal)
     for r in rows:
-        if abs(_dot(r.normal, filtered) * dt - r.bound) > 1e-9:
-            continue  # not tight: not what holds the agent back
+        if not _tight(r, filtered, dt):
+            continue  # not what holds the agent back
         into = -_dot(r.normal, nominal)
         if into <= 0.0:
             continue
@@ -279,19 +284,19 @@ def keep_going(
     nominal pushes into (its slot behind it), the projection keeps the nominal's part along the
     guard circle, and that part can point one way at one tick and back the next: the agent then
     shuffles on the spot for good (measured: the main cause of formations that never settled).
-    So for every such tight row (``rows`` are the obstacle rows) where the tangential part of
-    ``filtered`` points against that of ``previous`` (the velocity the agent held last), it is
-    turned to point along the previous one, at the same speed; the normal part is left as it
-    is. Going round a convex guard circle one way, the agent leaves the arc from which its
+    So for every such tight obstacle row (other agents' rows are left to the right-hand rule:
+    they move) where the tangential part of ``filtered`` points against that of ``previous``
+    (the velocity the agent held last), it is turned to point along the previous one, at the
+    same speed; the normal part is left as it is. Going round a convex guard circle one way, the agent leaves the arc from which its
     goal lies behind the obstacle. The caller projects the result again: safety does not
     depend on it."""
     out = list(filtered)
     changed = False
     for r in rows:
         if not r.obstacle:
-            continue  # agents move: the right-hand rule settles who goes where
-        if abs(_dot(r.normal, filtered) * dt - r.bound) > 1e-9 or _dot(r.normal, nominal) >= 0.0:
-            continue  # not tight, or the nominal does not push into it
+            continue
+        if not _tight(r, filtered, dt) or _dot(r.normal, nominal) >= 0.0:
+            continue  # not holding the agent, or the nominal does not push into it
         n = r.normal
         along = _dot(n, out)
         tangent = [x - along * g for x, g in zip(out, n, strict=True)]

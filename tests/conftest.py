@@ -229,6 +229,20 @@ def unique(name: str) -> str:
     return f"{name}-{uuid.uuid4().hex[:8]}"
 
 
+def shoal_run(
+    scenario: Path | str, router: str, out: Path, *extra: str, run: str | None = None
+) -> subprocess.Popen[str]:
+    """``shoal run SCENARIO`` as a user starts it, on ``router``, logging to ``out``, with its
+    stdout and stderr to read (``communicate``); ``run``: its run id (default: a fresh one)."""
+    ident = ["--run", run] if run is not None else []
+    return subprocess.Popen(
+        [*PYTHON, "run", str(scenario), "--connect", router, *ident, "--out", str(out), *extra],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
 def shortened(tmp_path: Path, name: str = "sinusoid", duration: float = 4.0) -> Path:
     """A built-in scenario cut to ``duration`` seconds, as a file."""
     lines = [

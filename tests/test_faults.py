@@ -24,12 +24,12 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import (
-    PYTHON,
     Watcher,
     client,
     descendants,
     json_of,
     processes_mentioning,
+    shoal_run,
     shortened,
     start_run,
     stop,
@@ -232,13 +232,7 @@ def test_leader_killed_stops_everyone_and_ends_the_run(
 def test_shoal_run_exits_1_naming_the_leader_when_it_dies(router: str, tmp_path: Path) -> None:
     run, out = unique("leaderrun"), tmp_path / "run.mcap"
     scenario = shortened(tmp_path, "sinusoid", 20.0)
-    proc = subprocess.Popen(
-        [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--json",
-         "--no-foxglove", "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )  # fmt: skip
+    proc = shoal_run(scenario, router, out, "--json", "--no-foxglove", run=run)
     try:
         with client(router) as session:
             Watcher(session, run).until_tick(100)
@@ -265,13 +259,7 @@ def test_a_run_that_does_not_finish_says_where_its_log_is(
     how to recover it; no dangling "code -9:" with nothing after it."""
     run, out = unique("where"), tmp_path / "run.mcap"
     scenario = shortened(tmp_path, "sinusoid", 20.0)
-    proc = subprocess.Popen(
-        [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--no-foxglove",
-         "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )  # fmt: skip
+    proc = shoal_run(scenario, router, out, "--no-foxglove", run=run)
     try:
         with client(router) as session:
             Watcher(session, run).until_tick(100)

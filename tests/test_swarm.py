@@ -20,6 +20,7 @@ from conftest import (
     json_of,
     processes_mentioning,
     run_cli,
+    shoal_run,
     shortened,
     start_run,
     still_running_after,
@@ -88,15 +89,7 @@ def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_p
 def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path) -> None:
     scenario = shortened(tmp_path, "sinusoid", duration=4.0)
     outs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
-    procs = [
-        subprocess.Popen(
-            [*PYTHON, "run", str(scenario), "--connect", router, "--json", "--out", str(o)],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        for o in outs
-    ]
+    procs = [shoal_run(scenario, router, o, "--json") for o in outs]
     try:
         results = [p.communicate(timeout=240) for p in procs]
     finally:
@@ -141,13 +134,7 @@ def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
 def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -> None:
     scenario = shortened(tmp_path, "sinusoid", duration=3.0)
     run, out = unique("junk"), tmp_path / "run.mcap"
-    proc = subprocess.Popen(
-        [*PYTHON, "run", str(scenario), "--connect", router, "--run", run, "--json",
-         "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )  # fmt: skip
+    proc = shoal_run(scenario, router, out, "--json", run=run)
     garbage = [
         b"\xc1\xff not msgpack",
         msgpack.packb({"v": 1, "k": "state", "id": "two", "tick": None}),
