@@ -287,9 +287,9 @@ def keep_going(
     So for every such tight obstacle row (other agents' rows are left to the right-hand rule:
     they move) where the tangential part of ``filtered`` points against that of ``previous``
     (the velocity the agent held last), it is turned to point along the previous one, at the
-    same speed; the normal part is left as it is. Going round a convex guard circle one way, the agent leaves the arc from which its
-    goal lies behind the obstacle. The caller projects the result again: safety does not
-    depend on it."""
+    same speed; the normal part is left as it is. Going round a convex guard circle one way,
+    the agent leaves the arc from which its goal lies behind the obstacle. The caller projects
+    the result again: safety does not depend on it."""
     out = list(filtered)
     changed = False
     for r in rows:
