@@ -46,6 +46,8 @@ class Memory:
     bid : this agent's current value in Algorithm 1.
     sigma_consensus : the factor agreed in the last finished epoch, applied now.
     busy : ticks in a row this follower has been busy (evading, filtered or far from its slot).
+    lagging : this follower was far from its slot at the last tick (filter mode).
+    calm : ticks in a row it has not been busy, counted up to CALM_TAUS heading time constants.
     route : a leader's waypoints still to go (with the safety filter), else None.
     """
 
@@ -55,16 +57,22 @@ class Memory:
     sigma_consensus: float
     busy: int = 0
     route: tuple[FloatArray, ...] | None = None
+    lagging: bool = False
+    calm: int = 0
 
 
 # With the safety filter u^o grows to at most this many times r_j + ρ + ε (agent/collision.py):
 # twice what a ray through the centre needs.
 RATCHET_CAP = 2.0
-# s: the longest a busy follower abstains from bidding for a contraction (see Memory.busy).
+# s: the longest a follower busy evading or filtered, but in its slot, abstains from bidding for
+# a contraction (see Memory.busy); one far from its slot abstains for as long as it is.
 BUSY_TIME = 5.0
 # A follower is far from its slot (busy) while ‖e_i‖∞ / deg_i exceeds this many β·dt: the
 # sign term's chattering band (the default convergence tolerance).
 BUSY_BAND = 10.0
+# Heading time constants: after being busy a follower bids again only once it has been calm this
+# long, when what is left of its manoeuvre in its heading (e^-3 of it) no longer steers its bid.
+CALM_TAUS = 3.0
 
 
 class Controller:
@@ -84,6 +92,7 @@ class Controller:
         self._shapes: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
         self.busy_ticks = round(BUSY_TIME / config.dt)
         self.busy_error = BUSY_BAND * self.params.beta * config.dt
+        self.calm_ticks = math.ceil(CALM_TAUS * tau / config.dt)
 
     def _shaped(self, sigma: float, theta: float) -> tuple[FloatArray, FloatArray]:
         """R(θ)δ/σ of this agent and of its sensed neighbours, computed once per (σ, θ)."""
@@ -110,6 +119,7 @@ class Controller:
             bid=1.0,
             sigma_consensus=1.0,
             route=route,
+            calm=self.calm_ticks,
         )
 
     def shape(self, tick: int, sigma_consensus: float) -> tuple[float, float]:
@@ -138,7 +148,11 @@ class Controller:
                 self._shaped(demanded, theta)[0]
                 - self._shaped(demanded * memory.sigma_consensus, theta)[0]
             )
-            manoeuvring = p.filtered and 0 < memory.busy <= self.busy_ticks
+            manoeuvring = p.filtered and (
+                memory.lagging
+                or 0 < memory.busy <= self.busy_ticks
+                or (memory.busy == 0 and memory.calm < self.calm_ticks)
+            )
             bid = (
                 1.0
                 if manoeuvring
@@ -170,7 +184,16 @@ class Controller:
                 epsilon=p.epsilon,
                 ratchet_cap=RATCHET_CAP if p.filtered else math.inf,
             )
-        memory = Memory(memory.heading, evasion, bid, agreed, busy=memory.busy, route=memory.route)
+        memory = Memory(
+            memory.heading,
+            evasion,
+            bid,
+            agreed,
+            busy=memory.busy,
+            route=memory.route,
+            lagging=memory.lagging,
+            calm=memory.calm,
+        )
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
             agent_id=self.config.agent_id,
@@ -226,6 +249,8 @@ class Controller:
             sigma_consensus=memory.sigma_consensus,
             busy=busy,
             route=route,
+            lagging=p.filtered and lag > self.busy_error,
+            calm=0 if busy else min(memory.calm + 1, self.calm_ticks),
         )
         command = Command(agent_id=cfg.agent_id, tick=sensing.tick, velocity=out, filtered=filtered)
         return memory, command
