@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.formation import FloatArray
+from shoal.agent.formation import FloatArray
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
 

@@ -20,21 +20,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.collision import Evasion, collision_course, ray_distance
-from agent.consensus import consensus_round, epoch_start, passage_bid
-from agent.errors import ConfigError
-from agent.formation import (
+from shoal.agent.collision import Evasion, collision_course, ray_distance
+from shoal.agent.consensus import consensus_round, epoch_start, passage_bid
+from shoal.agent.errors import ConfigError
+from shoal.agent.formation import (
     FloatArray,
     consensus_error,
     evasive_error,
     shaped,
     velocity,
 )
-from agent.leader import detour, lead
-from bus.geometry import segment_distance
-from bus.path import leader_velocity
-from bus.safety import safe_velocity
-from bus.types import AgentConfig, AgentState, Command, Sensing, Waypoints
+from shoal.agent.leader import detour, lead
+from shoal.bus.geometry import segment_distance
+from shoal.bus.path import leader_velocity
+from shoal.bus.safety import safe_velocity
+from shoal.bus.types import AgentConfig, AgentState, Command, Sensing, Waypoints
 
 
 @dataclass(frozen=True, slots=True)

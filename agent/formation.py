@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bus.geometry import FloatArray, rotation, shaped
+from shoal.bus.geometry import FloatArray, rotation, shaped
 
 __all__ = [
     "FloatArray",

@@ -1,6 +1,6 @@
 """The agent process: one robot's controller as an OS process on the bus.
 
-A thin loop around :class:`agent.controller.Controller`. It needs only the run id, its own id
+A thin loop around :class:`shoal.agent.controller.Controller`. It needs only the run id, its own id
 and an endpoint: it waits for the world's liveliness token, fetches its configuration from the
 world's queryable, subscribes to its own sensing and to its neighbours' states, and declares its
 own token once ready. Per tick (lockstep): sensing arrives → ``announce`` → publish the state;
@@ -23,15 +23,15 @@ from dataclasses import dataclass
 
 import zenoh
 
-from agent.controller import Controller
-from agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
-from agent.errors import ConfigError
-from bus import codec
-from bus.errors import DecodeError
-from bus.keys import Keys, agent_of
-from bus.links import publisher, still_present, subscribe, watch_presence
-from bus.runtime import Arrival, Inbox, warn
-from bus.types import AgentConfig, AgentState, Sensing
+from shoal.agent.controller import Controller
+from shoal.agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
+from shoal.agent.errors import ConfigError
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
+from shoal.bus.keys import Keys, agent_of
+from shoal.bus.links import publisher, still_present, subscribe, watch_presence
+from shoal.bus.runtime import Arrival, Inbox, warn
+from shoal.bus.types import AgentConfig, AgentState, Sensing
 
 
 class AgentAbort(RuntimeError):

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from bus.keys import Keys
+from shoal.bus.keys import Keys
 
 WORLD = "world"
 LOGGER = "logger"

@@ -2,7 +2,7 @@
 
 Every message is a msgpack map with ``v`` (schema version) and ``k`` (kind). Floats travel as
 float64, so a position round-trips bit for bit. Decoding validates everything — kind, version,
-types, lengths, finiteness — and raises :class:`~bus.errors.DecodeError` on any deviation; a
+types, lengths, finiteness — and raises :class:`~shoal.bus.errors.DecodeError` on any deviation; a
 receiver counts and drops such messages and never crashes on them.
 """
 
@@ -16,8 +16,8 @@ from typing import Any, TypeVar
 
 import msgpack
 
-from bus.errors import DecodeError
-from bus.types import (
+from shoal.bus.errors import DecodeError
+from shoal.bus.types import (
     AgentConfig,
     AgentState,
     Command,

@@ -12,7 +12,7 @@ import functools
 import re
 from dataclasses import dataclass
 
-from bus.errors import WireError
+from shoal.bus.errors import WireError
 
 _RUN_ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 _AGENT = re.compile(r"/agent/([1-9][0-9]{0,8})(?:/|$)")  # canonical ids only: not 01 or 007

@@ -7,7 +7,7 @@ already tolerated (agents act on the freshest data, the world's watchdog holds a
 command is stale), while blocking would let one unreachable agent stall everyone (the router's
 queue towards it fills within ~2 s of a partition and then holds up every sender until the
 lease drops it, 10 s later). Subscribers and presence watchers feed one
-:class:`~bus.runtime.Inbox`; the returned objects must be kept alive by the caller (Zenoh
+:class:`~shoal.bus.runtime.Inbox`; the returned objects must be kept alive by the caller (Zenoh
 undeclares an entity when its Python object is collected).
 """
 
@@ -19,7 +19,7 @@ from typing import Any
 
 import zenoh
 
-from bus.runtime import Arrival, Inbox
+from shoal.bus.runtime import Arrival, Inbox
 
 
 def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh.Publisher:

@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from bus.geometry import FloatArray
-from bus.types import PathSpec, Sinusoid, Waypoints
+from shoal.bus.geometry import FloatArray
+from shoal.bus.types import PathSpec, Sinusoid, Waypoints
 
 
 def path_position(path: PathSpec, t: float) -> FloatArray:

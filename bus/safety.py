@@ -24,7 +24,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from bus.types import Sensing, Vector
+from shoal.bus.types import Sensing, Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
 # only keeps an exactly-on-the-boundary solution from failing its own check.

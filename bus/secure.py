@@ -27,8 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bus.acl import ROUTER
-from bus.errors import WireError
+from shoal.bus.acl import ROUTER
+from shoal.bus.errors import WireError
 
 MANIFEST = "shoal-secure.json"
 

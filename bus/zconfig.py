@@ -18,8 +18,8 @@ from pathlib import Path
 
 import zenoh
 
-from bus.errors import WireError
-from bus.secure import Identity, check_tls_endpoints, secure_settings
+from shoal.bus.errors import WireError
+from shoal.bus.secure import Identity, check_tls_endpoints, secure_settings
 
 MODES = ("client", "peer", "router")
 CLIENT_CONNECT_MS = 30_000  # how long a client keeps trying to reach its router

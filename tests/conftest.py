@@ -20,18 +20,18 @@ from typing import Any
 import pytest
 import zenoh
 
-from bus import codec
-from bus.keys import Keys
-from bus.links import subscribe
-from bus.runtime import Inbox
-from bus.types import Event
-from bus.zconfig import zenoh_config
-from tools.launch import free_port
-from tools.procfs import PPID, START_TIME, STATE, stat_fields
-from tools.swarm import Child, Swarm
-from world.loader import load_scenario
+from shoal.bus import codec
+from shoal.bus.keys import Keys
+from shoal.bus.links import subscribe
+from shoal.bus.runtime import Inbox
+from shoal.bus.types import Event
+from shoal.bus.zconfig import zenoh_config
+from shoal.tools.launch import free_port
+from shoal.tools.procfs import PPID, START_TIME, STATE, stat_fields
+from shoal.tools.swarm import Child, Swarm
+from shoal.world.loader import load_scenario
 
-PYTHON = [sys.executable, "-m", "tools"]
+PYTHON = [sys.executable, "-m", "shoal.tools"]
 
 
 @pytest.fixture

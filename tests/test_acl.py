@@ -14,13 +14,13 @@ import pytest
 import zenoh
 from click.testing import CliRunner
 
-from bus.acl import LOGGER, MONITOR, ROUTER, WORLD, access_control, agent_name
-from bus.errors import WireError
-from bus.keys import Keys
-from bus.secure import Identity, Material
-from bus.zconfig import zenoh_config
-from tools.certs import issue, make_material
-from tools.cli import main
+from shoal.bus.acl import LOGGER, MONITOR, ROUTER, WORLD, access_control, agent_name
+from shoal.bus.errors import WireError
+from shoal.bus.keys import Keys
+from shoal.bus.secure import Identity, Material
+from shoal.bus.zconfig import zenoh_config
+from shoal.tools.certs import issue, make_material
+from shoal.tools.cli import main
 
 RUN, AGENTS = "r-1", 4
 ACL = access_control(RUN, AGENTS)

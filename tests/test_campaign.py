@@ -1,4 +1,4 @@
-"""`shoal campaign` and its field generator (world/fields.py): determinism, inside fields pass
+"""`shoal campaign` and its field generator (tools/fields.py): determinism, inside fields pass
 every load-time check, each outside field breaks exactly what it names, and a small campaign
 through the CLI whose saved failures replay exactly."""
 
@@ -12,11 +12,9 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from tools.campaign import judge
-from tools.cli import main
-from world.assumptions import check_assumptions
-from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
-from world.fields import (
+from shoal.tools.campaign import judge
+from shoal.tools.cli import main
+from shoal.tools.fields import (
     BREACHES,
     REFUSED,
     FieldError,
@@ -26,7 +24,9 @@ from world.fields import (
     make_field,
     needed_contraction,
 )
-from world.loader import load_scenario, parse_scenario
+from shoal.world.assumptions import check_assumptions
+from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
+from shoal.world.loader import load_scenario, parse_scenario
 
 OBSTACLES = load_scenario("obstacles")
 NUMBERED = {"A2": 2, "A3": 3, "A4": 4}

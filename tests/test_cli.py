@@ -7,10 +7,10 @@ from pathlib import Path
 
 from click.testing import CliRunner
 
-from tools.cli import main
-from tools.simulator import simulate
-from world.loader import load_scenario
-from world.trajectory import Trajectory
+from shoal.tools.cli import main
+from shoal.tools.simulator import simulate
+from shoal.world.loader import load_scenario
+from shoal.world.trajectory import Trajectory
 
 KEYS = {
     "scenario", "agents", "steps", "dt", "collisions", "min_clearance",

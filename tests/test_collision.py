@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike
 
-from agent.collision import Evasion, collision_course, evasive_offset, ray_distance
-from agent.formation import FloatArray
+from shoal.agent.collision import Evasion, collision_course, evasive_offset, ray_distance
+from shoal.agent.formation import FloatArray
 
 # Dyadic values so r + ρ + ε is exact in floating point: 1 + 0.25 + 0.125 = 1.375.
 R, RHO, EPS = 1.0, 0.25, 0.125

@@ -15,11 +15,11 @@ import yaml
 from click.testing import CliRunner
 from conftest import run_cli, unique
 
-from tools.cli import main
-from tools.compose import ENDPOINT, SCENARIO_PATH, compose_dict, compose_yaml, run_id_for
-from tools.launch import free_port
-from tools.swarm import Swarm
-from world.loader import builtin_names, load_scenario
+from shoal.tools.cli import main
+from shoal.tools.compose import ENDPOINT, SCENARIO_PATH, compose_dict, compose_yaml, run_id_for
+from shoal.tools.launch import free_port
+from shoal.tools.swarm import Swarm
+from shoal.world.loader import builtin_names, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "docker" / "compose.yaml"

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike
 
-from agent.consensus import consensus_round, epoch_start, passage_bid
-from world.graph import adjacency, communication_graph, diameter, hop_distances
+from shoal.agent.consensus import consensus_round, epoch_start, passage_bid
+from shoal.world.graph import adjacency, communication_graph, diameter, hop_distances
 
 RHO, EPS = 0.25, 0.125
 NORTH = np.array([0.0, 1.0])

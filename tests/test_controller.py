@@ -8,12 +8,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from agent.controller import Controller, Memory
-from agent.errors import ConfigError
-from agent.formation import consensus_error, velocity
-from bus.types import AgentState, Sensing
-from world.loader import scenario_from_dict
-from world.scenario import Scenario
+from shoal.agent.controller import Controller, Memory
+from shoal.agent.errors import ConfigError
+from shoal.agent.formation import consensus_error, velocity
+from shoal.bus.types import AgentState, Sensing
+from shoal.world.loader import scenario_from_dict
+from shoal.world.scenario import Scenario
 
 
 def triangle(**extra: Any) -> Scenario:

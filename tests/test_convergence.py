@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bus.path import peak_speed
-from tools.simulator import run
-from world.loader import scenario_from_dict
-from world.scenario import Scenario
-from world.theory import convergence_bound, formation_error
+from shoal.bus.path import peak_speed
+from shoal.tools.simulator import run
+from shoal.world.loader import scenario_from_dict
+from shoal.world.scenario import Scenario
+from shoal.world.theory import convergence_bound, formation_error
 
 RUNS = 200
 BETA = 2.0

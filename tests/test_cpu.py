@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from tools.cpu import CpuWindow, of_pid, per_tick_us, swarm_processes
-from tools.procfs import cpu_seconds
-from tools.swarm import Child, Swarm
+from shoal.tools.cpu import CpuWindow, of_pid, per_tick_us, swarm_processes
+from shoal.tools.procfs import cpu_seconds
+from shoal.tools.swarm import Child, Swarm
 
 
 def test_per_tick_figures_are_per_process_means_and_a_total_over_all() -> None:

@@ -9,9 +9,9 @@ import pytest
 from click.testing import CliRunner
 from conftest import shortened
 
-from agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
-from bus.types import AgentState
-from tools.cli import main
+from shoal.agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
+from shoal.bus.types import AgentState
+from shoal.tools.cli import main
 
 
 def state(j: int, tick: int) -> AgentState:

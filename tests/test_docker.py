@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from tools.compose import compose_yaml
-from tools.mcap_read import read_documents, read_ticks, read_trajectory
-from tools.simulator import simulate
-from world.loader import load_scenario
+from shoal.tools.compose import compose_yaml
+from shoal.tools.mcap_read import read_documents, read_ticks, read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.docker
 

@@ -36,18 +36,18 @@ from conftest import (
     unique,
 )
 
-from bus import codec
-from bus.keys import Keys
-from bus.links import subscribe, watch_presence
-from bus.path import peak_speed
-from bus.runtime import Inbox
-from bus.types import Event
-from tools.bench_drops import measure
-from tools.mcap_read import iter_channel, read_ticks, read_trajectory
-from tools.swarm import Swarm
-from world.loader import load_scenario
-from world.metrics import formation_errors
-from world.theory import convergence_bound, formation_error
+from shoal.bus import codec
+from shoal.bus.keys import Keys
+from shoal.bus.links import subscribe, watch_presence
+from shoal.bus.path import peak_speed
+from shoal.bus.runtime import Inbox
+from shoal.bus.types import Event
+from shoal.tools.bench_drops import measure
+from shoal.tools.mcap_read import iter_channel, read_ticks, read_trajectory
+from shoal.tools.swarm import Swarm
+from shoal.world.loader import load_scenario
+from shoal.world.metrics import formation_errors
+from shoal.world.theory import convergence_bound, formation_error
 
 pytestmark = pytest.mark.integration
 

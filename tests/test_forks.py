@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from conftest import descendants, still_running_after
 
-from tools.forks import Forked, ForkServerGone, Zygote
-from tools.launch import free_port
-from tools.lines import LineReader
-from tools.swarm import ChildFailed, Swarm
+from shoal.tools.forks import Forked, ForkServerGone, Zygote
+from shoal.tools.launch import free_port
+from shoal.tools.lines import LineReader
+from shoal.tools.swarm import ChildFailed, Swarm
 
 
 def _router_args() -> list[str]:

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from agent.collision import evasive_offset
-from agent.formation import consensus_error, evasive_error, rotation, shaped, velocity
+from shoal.agent.collision import evasive_offset
+from shoal.agent.formation import consensus_error, evasive_error, rotation, shaped, velocity
 
 
 @pytest.mark.parametrize("dim", [2, 3])

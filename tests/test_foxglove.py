@@ -26,12 +26,12 @@ from jsonschema import Draft202012Validator
 from jsonschema.validators import validator_for
 from mcap.reader import make_reader
 
-from bus import codec
-from bus.keys import Keys
-from bus.types import Event, TickRecord
-from tools.cli import main
-from tools.cmd_export import export_beside
-from tools.foxglove import (
+from shoal.bus import codec
+from shoal.bus.keys import Keys
+from shoal.bus.types import Event, TickRecord
+from shoal.tools.cli import main
+from shoal.tools.cmd_export import export_beside
+from shoal.tools.foxglove import (
     AGENTS,
     FRAMES,
     GRAPH,
@@ -47,14 +47,14 @@ from tools.foxglove import (
     schema_text,
     views,
 )
-from tools.foxglove_export import sibling
-from tools.foxglove_msgs import arrow, dashes, vec3s
-from tools.foxglove_plots import CLEARANCE, FORMATION_ERROR, OMEGA
-from tools.mcap_log import McapLog
-from tools.simulator import run as simulate_ticks
-from tools.simulator import simulate
-from world.loader import parse_scenario
-from world.metrics import summarize
+from shoal.tools.foxglove_export import sibling
+from shoal.tools.foxglove_msgs import arrow, dashes, vec3s
+from shoal.tools.foxglove_plots import CLEARANCE, FORMATION_ERROR, OMEGA
+from shoal.tools.mcap_log import McapLog
+from shoal.tools.simulator import run as simulate_ticks
+from shoal.tools.simulator import simulate
+from shoal.world.loader import parse_scenario
+from shoal.world.metrics import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
 VENDORED = ROOT / "tools" / "foxglove_schemas"

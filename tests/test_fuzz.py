@@ -53,11 +53,11 @@ from conftest import client, shortened, start_run, unique
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bus import codec
-from bus.errors import DecodeError, WireError
-from bus.keys import Keys, agent_of
-from bus.links import publisher
-from bus.types import (
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError, WireError
+from shoal.bus.keys import Keys, agent_of
+from shoal.bus.links import publisher
+from shoal.bus.types import (
     AgentConfig,
     AgentState,
     Command,
@@ -69,9 +69,9 @@ from bus.types import (
     TickRecord,
     Waypoints,
 )
-from world.errors import ScenarioError, ScenarioWarning
-from world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
-from world.scenario import Scenario
+from shoal.world.errors import ScenarioError, ScenarioWarning
+from shoal.world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
+from shoal.world.scenario import Scenario
 
 SCALE = max(1, int(os.environ.get("SHOAL_FUZZ_SCALE", "1")))
 BULK_DECODER_CASES = 2000 * SCALE  # per decoder, seeded random
@@ -765,7 +765,9 @@ def test_run_and_agent_ids_in_keys(key: str) -> None:
 # -- 2. the scenario loader -----------------------------------------------------------------------
 
 BUILTINS = {
-    name: resources.files("world.scenarios").joinpath(f"{name}.yaml").read_text(encoding="utf-8")
+    name: resources.files("shoal.world.scenarios")
+    .joinpath(f"{name}.yaml")
+    .read_text(encoding="utf-8")
     for name in builtin_names()
 }
 PARSED = {name: yaml.safe_load(text) for name, text in BUILTINS.items()}
@@ -1036,10 +1038,10 @@ def test_every_process_drops_and_counts_fuzzed_payloads_and_the_run_stays_exact(
 ) -> None:
     from mcap.reader import make_reader
 
-    from tools.mcap_read import read_documents, read_trajectory
-    from tools.simulator import simulate
-    from tools.swarm import Swarm
-    from tools.verify import verify
+    from shoal.tools.mcap_read import read_documents, read_trajectory
+    from shoal.tools.simulator import simulate
+    from shoal.tools.swarm import Swarm
+    from shoal.tools.verify import verify
 
     scenario = shortened(tmp_path, "sinusoid", duration=5.0)
     scn = load_scenario(scenario)
@@ -1108,9 +1110,9 @@ def test_every_process_drops_and_counts_fuzzed_payloads_and_the_run_stays_exact(
 def test_the_world_counts_commands_that_come_before_tick_0(router: str, tmp_path: Path) -> None:
     """Garbage on the command keys while the world still waits for everyone is counted too (no
     agent can command before it has sensed tick 0, so every such message is bad)."""
-    from bus.links import watch_presence
-    from bus.runtime import Inbox
-    from tools.swarm import Swarm
+    from shoal.bus.links import watch_presence
+    from shoal.bus.runtime import Inbox
+    from shoal.tools.swarm import Swarm
 
     scenario = shortened(tmp_path, "sinusoid", duration=0.5)
     scn = load_scenario(scenario)

@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from world.graph import (
+from shoal.world.graph import (
     adjacency,
     communication_graph,
     diameter,

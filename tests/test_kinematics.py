@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from world.kinematics import integrate, sense_all
+from shoal.world.kinematics import integrate, sense_all
 
 
 def test_integrate_is_one_euler_step() -> None:

@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from agent.leader import detour, lead
-from bus.geometry import segment_distance
-from world.errors import AssumptionError, DetourWarning
-from world.loader import scenario_from_dict
+from shoal.agent.leader import detour, lead
+from shoal.bus.geometry import segment_distance
+from shoal.world.errors import AssumptionError, DetourWarning
+from shoal.world.loader import scenario_from_dict
 
 RHO, CLEAR = 0.2, 0.25  # the controller's guard ρ and clearance ρ + ε
 
@@ -118,8 +118,8 @@ def test_a_waypoint_too_close_to_an_obstacle_is_refused_even_with_the_filter() -
 
 
 def test_the_formation_follows_a_leader_that_goes_round_an_obstacle_on_its_path() -> None:
-    from tools.simulator import simulate
-    from world.metrics import summarize
+    from shoal.tools.simulator import simulate
+    from shoal.world.metrics import summarize
 
     with pytest.warns(DetourWarning):
         scn = scenario_from_dict(_scenario([[0, 0], [16, 0]]))

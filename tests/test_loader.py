@@ -16,8 +16,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
-from world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
+from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
+from shoal.world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
 
 DELETE = object()
 
@@ -83,7 +83,9 @@ def test_builtin_loads_cleanly(name: str) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         s = load_scenario(name)
-    raw = yaml.safe_load(resources.files("world.scenarios").joinpath(f"{name}.yaml").read_text())
+    raw = yaml.safe_load(
+        resources.files("shoal.world.scenarios").joinpath(f"{name}.yaml").read_text()
+    )
     assert (s.n, len(s.obstacles)) == (len(raw["agents"]), len(raw.get("obstacles", [])))
     assert (s.n, len(s.obstacles)) == KNOWN_SIZES.get(name, (s.n, len(s.obstacles)))
     assert s.name == name and set(KNOWN_SIZES) <= set(builtin_names())

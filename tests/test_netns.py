@@ -27,11 +27,11 @@ import numpy as np
 import pytest
 from conftest import shortened, stop, unique
 
-from bus import codec
-from tools.mcap_read import iter_channel, read_trajectory
-from tools.simulator import simulate
-from tools.swarm import Child, Swarm
-from world.loader import load_scenario
+from shoal.bus import codec
+from shoal.tools.mcap_read import iter_channel, read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.tools.swarm import Child, Swarm
+from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.netns
 
@@ -47,11 +47,11 @@ except OSError:
 # Prints every tick number of a run, after declaring the "monitor" token the world waits for.
 WATCH = """
 import sys, zenoh
-from bus import codec
-from bus.keys import Keys
-from bus.links import subscribe
-from bus.runtime import Inbox
-from bus.zconfig import zenoh_config
+from shoal.bus import codec
+from shoal.bus.keys import Keys
+from shoal.bus.links import subscribe
+from shoal.bus.runtime import Inbox
+from shoal.bus.zconfig import zenoh_config
 keys, inbox = Keys(sys.argv[2]), Inbox()
 with zenoh.open(zenoh_config(mode="client", connect=[sys.argv[1]])) as session:
     held = subscribe(session, keys.tick, inbox)

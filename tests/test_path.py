@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from bus.path import leader_velocity, path_position, peak_speed
-from bus.types import Sinusoid, Waypoints
+from shoal.bus.path import leader_velocity, path_position, peak_speed
+from shoal.bus.types import Sinusoid, Waypoints
 
 ELL = Waypoints(points=((0.0, 0.0), (3.0, 0.0), (3.0, 4.0)), speed=1.0)  # length 7 m
 WAVE = Sinusoid(

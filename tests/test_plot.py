@@ -13,8 +13,9 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgba
 from matplotlib.lines import Line2D
 
-from tools.cli import main
-from tools.figures import (
+from shoal.tools.cli import main
+from shoal.tools.fields import FieldOptions, make_field
+from shoal.tools.figures import (
     FIGURES,
     RunView,
     colour,
@@ -23,11 +24,10 @@ from tools.figures import (
     formation_error,
     omega_timeline,
 )
-from tools.simulator import simulate
-from world.errors import BetaWarning
-from world.fields import FieldOptions, make_field
-from world.loader import load_scenario, parse_scenario
-from world.metrics import clearances
+from shoal.tools.simulator import simulate
+from shoal.world.errors import BetaWarning
+from shoal.world.loader import load_scenario, parse_scenario
+from shoal.world.metrics import clearances
 
 
 @functools.cache

@@ -11,11 +11,11 @@ import pytest
 from click.testing import CliRunner
 from conftest import PYTHON, client
 
-from bus.links import subscribe
-from bus.runtime import Inbox
-from tools.cli import main
-from tools.replay import Selection, messages
-from world.loader import load_scenario
+from shoal.bus.links import subscribe
+from shoal.bus.runtime import Inbox
+from shoal.tools.cli import main
+from shoal.tools.replay import Selection, messages
+from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration
 

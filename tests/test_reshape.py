@@ -7,9 +7,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bus.geometry import rotation
-from tools.simulator import simulate
-from world.loader import scenario_from_dict
+from shoal.bus.geometry import rotation
+from shoal.tools.simulator import simulate
+from shoal.world.loader import scenario_from_dict
 
 
 def formation(dim: int, reshape: list[dict[str, float]]) -> dict[str, Any]:

@@ -9,10 +9,10 @@ import hashlib
 
 import pytest
 
-from tools.simulator import simulate
-from world.errors import ScenarioError
-from world.loader import load_scenario, parse_scenario, scenario_from_dict
-from world.metrics import clearances, summarize
+from shoal.tools.simulator import simulate
+from shoal.world.errors import ScenarioError
+from shoal.world.loader import load_scenario, parse_scenario, scenario_from_dict
+from shoal.world.metrics import clearances, summarize
 
 # sha256 (first 32 hex digits) of the float64 positions of each built-in as simulated before
 # the safety filter existed (commit 8bf9d1e): the paper mode must keep reproducing them.

@@ -11,9 +11,9 @@ from collections.abc import Callable
 import pytest
 from safety_cases import cases, failures
 
-from bus import safety
-from bus.safety import Filtered, Row, cap_speed, project, rows_for, safe_velocity
-from bus.types import Sensing, Vector
+from shoal.bus import safety
+from shoal.bus.safety import Filtered, Row, cap_speed, project, rows_for, safe_velocity
+from shoal.bus.types import Sensing, Vector
 
 BATCH = cases(seed=11, count=600)
 

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from conftest import json_of, run_cli
 
-from tools.mcap_read import read_trajectory
-from tools.simulator import simulate
-from world.fields import FieldOptions, make_field
-from world.loader import load_scenario, parse_scenario
+from shoal.tools.fields import FieldOptions, make_field
+from shoal.tools.mcap_read import read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.world.loader import load_scenario, parse_scenario
 
 pytestmark = pytest.mark.integration
 

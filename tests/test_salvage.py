@@ -14,13 +14,13 @@ from click.testing import CliRunner
 from conftest import client, start_run, unique
 from mcap.reader import make_reader
 
-from tools.cli import main
-from tools.mcap_log import McapLog
-from tools.mcap_read import read_ticks, read_trajectory
-from tools.mcap_salvage import inspect_file, is_finished
-from tools.simulator import simulate
-from tools.swarm import Swarm
-from world.loader import load_scenario
+from shoal.tools.cli import main
+from shoal.tools.mcap_log import McapLog
+from shoal.tools.mcap_read import read_ticks, read_trajectory
+from shoal.tools.mcap_salvage import inspect_file, is_finished
+from shoal.tools.simulator import simulate
+from shoal.tools.swarm import Swarm
+from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration
 
@@ -115,8 +115,8 @@ def _copy_with(src: Path, dst: Path, *, tick: int) -> None:
     from mcap.records import Channel, Message, Metadata, Schema
     from mcap.writer import Writer
 
-    from bus import codec
-    from tools.mcap_salvage import Scan, records
+    from shoal.bus import codec
+    from shoal.tools.mcap_salvage import Scan, records
 
     scan, ids = Scan(), {}
     with dst.open("wb") as f:
@@ -147,11 +147,11 @@ def test_a_later_scenario_on_the_runs_key_does_not_replace_the_worlds(tmp_path: 
     attached nor read back as the run's scenario, so `shoal verify` checks the real one."""
     from collections import deque
 
-    from bus import codec
-    from bus.keys import Keys
-    from tools.logger import _write
-    from tools.mcap_log import McapLog
-    from tools.mcap_read import read_documents
+    from shoal.bus import codec
+    from shoal.bus.keys import Keys
+    from shoal.tools.logger import _write
+    from shoal.tools.mcap_log import McapLog
+    from shoal.tools.mcap_read import read_documents
 
     keys, out = Keys("forged"), tmp_path / "run.mcap"
     received = deque(

@@ -9,12 +9,12 @@ import hashlib
 import numpy as np
 import pytest
 
-from bus.geometry import rotation
-from tools.simulator import simulate
-from world.loader import builtin_names, load_scenario
-from world.metrics import Summary, formation_errors, pair_distances, summarize
-from world.scenario import Scenario
-from world.trajectory import Trajectory
+from shoal.bus.geometry import rotation
+from shoal.tools.simulator import simulate
+from shoal.world.loader import builtin_names, load_scenario
+from shoal.world.metrics import Summary, formation_errors, pair_distances, summarize
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
 
 
 @functools.cache

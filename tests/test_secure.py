@@ -37,19 +37,19 @@ import pytest
 import zenoh
 from conftest import PYTHON, Watcher, json_of, unique
 
-from bus import codec
-from bus.acl import LOGGER, MONITOR, WORLD, agent_name
-from bus.keys import Keys
-from bus.secure import Identity, Material
-from bus.types import AgentState, Command, Event, Sensing
-from bus.zconfig import zenoh_config
-from tools.certs import issue, make_material
-from tools.launch import free_port
-from tools.mcap_read import iter_channel, read_documents, read_trajectory
-from tools.simulator import simulate
-from tools.swarm import Child, Swarm
-from tools.verify import verify
-from world.loader import load_scenario
+from shoal.bus import codec
+from shoal.bus.acl import LOGGER, MONITOR, WORLD, agent_name
+from shoal.bus.keys import Keys
+from shoal.bus.secure import Identity, Material
+from shoal.bus.types import AgentState, Command, Event, Sensing
+from shoal.bus.zconfig import zenoh_config
+from shoal.tools.certs import issue, make_material
+from shoal.tools.launch import free_port
+from shoal.tools.mcap_read import iter_channel, read_documents, read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.tools.swarm import Child, Swarm
+from shoal.tools.verify import verify
+from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration
 

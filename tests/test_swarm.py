@@ -29,14 +29,14 @@ from conftest import (
 )
 from mcap.reader import make_reader
 
-from bus import codec
-from bus.types import AgentState, Sensing
-from tools.cmd_simulate import json_safe
-from tools.mcap_read import iter_channel, read_trajectory
-from tools.simulator import simulate
-from tools.swarm import Swarm
-from world.loader import builtin_names, load_scenario
-from world.metrics import summarize
+from shoal.bus import codec
+from shoal.bus.types import AgentState, Sensing
+from shoal.tools.cmd_simulate import json_safe
+from shoal.tools.mcap_read import iter_channel, read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.tools.swarm import Swarm
+from shoal.world.loader import builtin_names, load_scenario
+from shoal.world.metrics import summarize
 
 pytestmark = pytest.mark.integration
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from agent.formation import consensus_error, velocity
-from world.graph import adjacency
-from world.theory import convergence_bound, formation_error, remark3_bound, theorem1_bound
+from shoal.agent.formation import consensus_error, velocity
+from shoal.world.graph import adjacency
+from shoal.world.theory import convergence_bound, formation_error, remark3_bound, theorem1_bound
 
 # 3 agents on a path 1-2-3: M = [[2, -1], [-1, 1]], eigenvalues (3 ± √5)/2 = φ², 1/φ².
 PATH3 = adjacency(3, [(1, 2), (2, 3)], directed=False)

@@ -11,12 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bus import codec
-from bus.errors import DecodeError, WireError
-from bus.keys import Keys, agent_of
-from bus.types import AgentState, Command, Event, Sensing, TickRecord
-from bus.zconfig import zenoh_config
-from world.loader import builtin_names, load_scenario
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError, WireError
+from shoal.bus.keys import Keys, agent_of
+from shoal.bus.types import AgentState, Command, Event, Sensing, TickRecord
+from shoal.bus.zconfig import zenoh_config
+from shoal.world.loader import builtin_names, load_scenario
 
 FLOATS = st.floats(allow_nan=False, allow_infinity=False, width=64)
 

@@ -1,9 +1,9 @@
 """``python -m tools``: the same as the ``shoal`` console script (used to spawn children)."""
 
-from tools.swarm import adopt_supervisor
+from shoal.tools.swarm import adopt_supervisor
 
 adopt_supervisor()  # before anything slow: a child of shoal run dies with it, even while starting
 
-from tools.cli import main  # noqa: E402
+from shoal.tools.cli import main  # noqa: E402
 
 main()

@@ -20,10 +20,10 @@ from typing import Any
 
 import yaml
 
-from tools.bench_scenarios import bench_scenario
-from tools.cpu import CpuWindow, swarm_processes
-from tools.launch import RunPlan, RunResult, free_port, launch
-from tools.swarm import Swarm
+from shoal.tools.bench_scenarios import bench_scenario
+from shoal.tools.cpu import CpuWindow, swarm_processes
+from shoal.tools.launch import RunPlan, RunResult, free_port, launch
+from shoal.tools.swarm import Swarm
 
 
 @dataclass(frozen=True)

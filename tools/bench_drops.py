@@ -1,14 +1,14 @@
 """Formation error against the fraction of neighbour messages lost (issue 6, item 2).
 
-Each rate gets one realtime run of the whole swarm (``shoal run --mode realtime --drop-rate P``,
-a router of its own), and the error is read back from the run's log, so the figures are the
-world's ground truth, not what the agents believed. The steady-state error is the formation
-error of :func:`world.metrics.formation_errors` (worst follower, per-coordinate), over the ticks
-from ``settle`` seconds on: the transient from the scattered start is excluded, the effect of the
-lost messages is what remains. Its median is the figure to compare (a realtime run on a shared
-machine has CPU stalls, during which the world's watchdog holds starved agents still while the
-leader moves on: they show in the p95 and the max, which are reported beside it together with the
-run's missed deadlines and stale holds, so a reader can tell load from loss).
+Each rate gets one realtime run of the whole swarm (``shoal run --mode realtime --drop-rate P``, a
+router of its own), and the error is read back from the run's log, so the figures are the world's
+ground truth, not what the agents believed. The steady-state error is the formation error of
+:func:`shoal.world.metrics.formation_errors` (worst follower, per-coordinate), over the ticks from
+``settle`` seconds on: the transient from the scattered start is excluded, the effect of the lost
+messages is what remains. Its median is the figure to compare (a realtime run on a shared machine
+has CPU stalls, during which the world's watchdog holds starved agents still while the leader moves
+on: they show in the p95 and the max, which are reported beside it together with the run's missed
+deadlines and stale holds, so a reader can tell load from loss).
 
 ``shoal bench --drops 0,0.05,0.2`` prints the figures as JSON; tests/test_faults.py asserts a
 bound on a shorter run of the same function.
@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from tools.launch import RunPlan, launch
-from tools.mcap_read import read_trajectory
-from world.loader import load_scenario
-from world.metrics import formation_errors
+from shoal.tools.launch import RunPlan, launch
+from shoal.tools.mcap_read import read_trajectory
+from shoal.world.loader import load_scenario
+from shoal.world.metrics import formation_errors
 
 _STATS = re.compile(
     r"injected drops (\d+) of (\d+), age p50 (\S+) p99 (\S+) max (\S+) ticks, stale edges (\d+)"

@@ -1,6 +1,6 @@
 """What the safety filter costs per agent-tick (``shoal bench --filter``), warm, on the calls a
 real run makes: every call of one campaign field where the filter acts is recorded, then replayed
-through :func:`bus.safety.safe_velocity` alone. Beside it, in the same invocation, the whole
+through :func:`shoal.bus.safety.safe_velocity` alone. Beside it, in the same invocation, the whole
 reference simulator's CPU per agent-tick (the agent's laws, sensing, the world's second pass):
 the budget the filter takes its share of."""
 
@@ -11,12 +11,12 @@ import time
 from typing import Any
 from unittest import mock
 
-from agent import controller
-from bus import safety
-from bus.types import Sensing, Vector
-from tools.simulator import simulate
-from world.fields import make_field
-from world.loader import load_scenario
+from shoal.agent import controller
+from shoal.bus import safety
+from shoal.bus.types import Sensing, Vector
+from shoal.tools.fields import make_field
+from shoal.tools.simulator import simulate
+from shoal.world.loader import load_scenario
 
 Call = tuple[Vector, Sensing, int, dict[str, Any]]
 

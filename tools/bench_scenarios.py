@@ -9,10 +9,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from bus import codec
-from bus.types import AgentState, Command, Sensing, TickRecord
-from world.loader import scenario_from_dict
-from world.scenario import Scenario
+from shoal.bus import codec
+from shoal.bus.types import AgentState, Command, Sensing, TickRecord
+from shoal.world.loader import scenario_from_dict
+from shoal.world.scenario import Scenario
 
 
 def bench_scenario(n: int, ticks: int) -> dict[str, Any]:

@@ -1,9 +1,9 @@
 """The safety campaign: many random fields through the reference simulator, in parallel.
 
-Each field (world/fields.py) runs in a worker process with :func:`tools.simulator.simulate` and
-is judged by :mod:`world.metrics`, the same figures ``shoal simulate`` prints; the campaign
-only splits collisions by kind and aggregates per set (inside, and outside by the assumption
-broken). An inside field that collides falsifies the guarantee; an outside one is data.
+Each field (tools/fields.py) runs in a worker process with :func:`shoal.tools.simulator.simulate`
+and is judged by :mod:`shoal.world.metrics`, the same figures ``shoal simulate`` prints; the
+campaign only splits collisions by kind and aggregates per set (inside, and outside by the
+assumption broken). An inside field that collides falsifies the guarantee; an outside one is data.
 """
 
 from __future__ import annotations
@@ -21,13 +21,13 @@ from typing import Any
 
 import numpy as np
 
-from tools.simulator import simulate
-from world.errors import WorldError
-from world.fields import BREACHES, REFUSED, FieldOptions, make_field
-from world.loader import parse_scenario
-from world.metrics import Summary, clearances, onsets, pair_distances, summarize
-from world.scenario import Scenario
-from world.trajectory import Trajectory
+from shoal.tools.fields import BREACHES, REFUSED, FieldOptions, make_field
+from shoal.tools.simulator import simulate
+from shoal.world.errors import WorldError
+from shoal.world.loader import parse_scenario
+from shoal.world.metrics import Summary, clearances, onsets, pair_distances, summarize
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

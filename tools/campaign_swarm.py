@@ -12,11 +12,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tools.launch import RunPlan, launch
-from tools.mcap_read import read_trajectory
-from tools.simulator import simulate
-from world.fields import FieldOptions, make_field
-from world.scenario import Scenario
+from shoal.tools.fields import FieldOptions, make_field
+from shoal.tools.launch import RunPlan, launch
+from shoal.tools.mcap_read import read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.world.scenario import Scenario
 
 
 def run_swarms(

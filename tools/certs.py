@@ -20,9 +20,9 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from bus.acl import LOGGER, MONITOR, ROUTER, WORLD, access_control, agent_name
-from bus.keys import Keys
-from bus.secure import Material
+from shoal.bus.acl import LOGGER, MONITOR, ROUTER, WORLD, access_control, agent_name
+from shoal.bus.keys import Keys
+from shoal.bus.secure import Material
 
 # Names a client may use to reach the router: loopback, and "router" (a compose service name).
 DEFAULT_HOSTS = ("localhost", "127.0.0.1", "::1", "router")

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import click
 
-from agent.process import AgentAbort, AgentNode, AgentOptions
-from bus.acl import agent_name
-from bus.runtime import exit_on_signals, warn
-from tools.options import bus_options, client_config, drop_options, open_session
+from shoal.agent.process import AgentAbort, AgentNode, AgentOptions
+from shoal.bus.acl import agent_name
+from shoal.bus.runtime import exit_on_signals, warn
+from shoal.tools.options import bus_options, client_config, drop_options, open_session
 
 
 @click.command()

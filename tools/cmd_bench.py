@@ -8,11 +8,11 @@ from typing import Any
 
 import click
 
-from bus.runtime import exit_on_signals
-from tools.bench import bench as run_bench
-from tools.bench_drops import bench_drops
-from tools.bench_filter import bench_filter
-from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.bench import bench as run_bench
+from shoal.tools.bench_drops import bench_drops
+from shoal.tools.bench_filter import bench_filter
+from shoal.tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
 
 @click.command()

@@ -11,19 +11,19 @@ from typing import Any
 
 import click
 
-from bus.runtime import exit_on_signals
-from tools.campaign import measure, render, report, run_campaign, saved_stem, tasks
-from tools.campaign import save_failures as write_failures
-from tools.campaign_swarm import render_swarms, run_swarms, swarm_report
-from tools.cmd_simulate import json_safe, load_for_cli
-from tools.progress import progress_bar
-from tools.report import render_summary
-from tools.simulator import simulate
-from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
-from world.errors import ScenarioError
-from world.fields import BREACHES, FieldOptions, breaches, load_field
-from world.metrics import summarize
-from world.scenario import Scenario
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.campaign import measure, render, report, run_campaign, saved_stem, tasks
+from shoal.tools.campaign import save_failures as write_failures
+from shoal.tools.campaign_swarm import render_swarms, run_swarms, swarm_report
+from shoal.tools.cmd_simulate import json_safe, load_for_cli
+from shoal.tools.fields import BREACHES, FieldOptions, breaches, load_field
+from shoal.tools.progress import progress_bar
+from shoal.tools.report import render_summary
+from shoal.tools.simulator import simulate
+from shoal.tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
+from shoal.world.errors import ScenarioError
+from shoal.world.metrics import summarize
+from shoal.world.scenario import Scenario
 
 
 def _count(text: str) -> tuple[int, int]:

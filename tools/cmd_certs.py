@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from bus.acl import agent_name
-from tools.certs import DEFAULT_HOSTS, CertError, make_material
-from tools.options import check_run_id
+from shoal.bus.acl import agent_name
+from shoal.tools.certs import DEFAULT_HOSTS, CertError, make_material
+from shoal.tools.options import check_run_id
 
 
 @click.command()

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import click
 
-from tools.cmd_simulate import load_for_cli
-from tools.compose import compose_yaml
-from world.loader import builtin_names
+from shoal.tools.cmd_simulate import load_for_cli
+from shoal.tools.compose import compose_yaml
+from shoal.world.loader import builtin_names
 
 # The checkout this command runs from, if it is one (an editable install): the image is built
 # from it. An installed wheel has no docker/Dockerfile beside its packages.

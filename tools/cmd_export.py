@@ -7,11 +7,11 @@ from pathlib import Path
 
 import click
 
-from bus.runtime import warn
-from tools.foxglove import ViewOptions
-from tools.foxglove_export import ExportError, ExportResult, sibling
-from tools.foxglove_export import export as write_views
-from tools.progress import advance_to, progress_bar
+from shoal.bus.runtime import warn
+from shoal.tools.foxglove import ViewOptions
+from shoal.tools.foxglove_export import ExportError, ExportResult, sibling
+from shoal.tools.foxglove_export import export as write_views
+from shoal.tools.progress import advance_to, progress_bar
 
 
 def with_progress(

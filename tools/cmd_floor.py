@@ -7,10 +7,10 @@ import json
 import click
 import zenoh
 
-from bus.runtime import exit_on_signals
-from tools.bench_scenarios import load_bench, message_sizes, neighbours
-from tools.floor import floor_agent, floor_listener, floor_world
-from tools.options import client_config, open_session
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.bench_scenarios import load_bench, message_sizes, neighbours
+from shoal.tools.floor import floor_agent, floor_listener, floor_world
+from shoal.tools.options import client_config, open_session
 
 
 @click.group(hidden=True)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from tools.mcap_salvage import LogError, inspect_file
+from shoal.tools.mcap_salvage import LogError, inspect_file
 
 
 @click.command()

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from bus.acl import LOGGER
-from bus.runtime import exit_on_signals
-from tools.logger import run_logger
-from tools.options import bus_options, client_config, open_session
+from shoal.bus.acl import LOGGER
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.logger import run_logger
+from shoal.tools.options import bus_options, client_config, open_session
 
 
 @click.command()

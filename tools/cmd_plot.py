@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from tools.plot import PlotError
-from tools.plot import plot as draw
-from tools.progress import progress_bar
+from shoal.tools.plot import PlotError
+from shoal.tools.plot import plot as draw
+from shoal.tools.progress import progress_bar
 
 
 @click.command()

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import click
 
-from tools.mcap_salvage import LogError
-from tools.mcap_salvage import recover as salvage
+from shoal.tools.mcap_salvage import LogError
+from shoal.tools.mcap_salvage import recover as salvage
 
 
 @click.command()

@@ -7,12 +7,12 @@ from typing import Any
 
 import click
 
-from bus.runtime import exit_on_signals
-from tools.mcap_salvage import LogError, check_log
-from tools.options import client_config, open_session
-from tools.progress import progress_bar
-from tools.replay import Selection
-from tools.replay import replay as play
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.mcap_salvage import LogError, check_log
+from shoal.tools.options import client_config, open_session
+from shoal.tools.progress import progress_bar
+from shoal.tools.replay import Selection
+from shoal.tools.replay import replay as play
 
 
 @click.command()

@@ -8,14 +8,14 @@ from pathlib import Path
 import click
 import zenoh
 
-from bus.acl import ROUTER
-from bus.errors import WireError
-from bus.keys import Keys
-from bus.links import watch_presence
-from bus.runtime import Inbox, announce_ready, exit_on_signals
-from bus.secure import Identity, Material
-from bus.zconfig import zenoh_config
-from tools.options import check_run_id, open_session
+from shoal.bus.acl import ROUTER
+from shoal.bus.errors import WireError
+from shoal.bus.keys import Keys
+from shoal.bus.links import watch_presence
+from shoal.bus.runtime import Inbox, announce_ready, exit_on_signals
+from shoal.bus.secure import Identity, Material
+from shoal.bus.zconfig import zenoh_config
+from shoal.tools.options import check_run_id, open_session
 
 
 @click.command()

@@ -11,19 +11,19 @@ from pathlib import Path
 
 import click
 
-from bus.errors import WireError
-from bus.runtime import exit_on_signals, warn
-from bus.secure import Material
-from tools.certs import CertError
-from tools.cmd_export import export_beside
-from tools.cmd_simulate import json_safe, load_for_cli
-from tools.foxglove_export import sibling
-from tools.launch import RunPlan, launch
-from tools.mcap_salvage import is_finished
-from tools.options import check_run_id, drop_options
-from tools.report import render_summary
-from tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
-from world.loader import builtin_names
+from shoal.bus.errors import WireError
+from shoal.bus.runtime import exit_on_signals, warn
+from shoal.bus.secure import Material
+from shoal.tools.certs import CertError
+from shoal.tools.cmd_export import export_beside
+from shoal.tools.cmd_simulate import json_safe, load_for_cli
+from shoal.tools.foxglove_export import sibling
+from shoal.tools.launch import RunPlan, launch
+from shoal.tools.mcap_salvage import is_finished
+from shoal.tools.options import check_run_id, drop_options
+from shoal.tools.report import render_summary
+from shoal.tools.swarm import SUPERVISOR_GRACE_S, ChildFailed
+from shoal.world.loader import builtin_names
 
 _DROPS = re.compile(r"injected drops (\d+) of (\d+)")
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import click
 
-from tools.cmd_simulate import load_for_cli
-from world.loader import builtin_names
+from shoal.tools.cmd_simulate import load_for_cli
+from shoal.world.loader import builtin_names
 
 
 @click.command()

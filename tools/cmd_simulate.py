@@ -11,12 +11,12 @@ from typing import Any
 
 import click
 
-from tools.report import render_summary
-from tools.simulator import simulate as run_reference
-from world.errors import ScenarioError, ScenarioWarning
-from world.loader import load_scenario
-from world.metrics import summarize
-from world.scenario import Scenario
+from shoal.tools.report import render_summary
+from shoal.tools.simulator import simulate as run_reference
+from shoal.world.errors import ScenarioError, ScenarioWarning
+from shoal.world.loader import load_scenario
+from shoal.world.metrics import summarize
+from shoal.world.scenario import Scenario
 
 
 def load_for_cli(name_or_path: str) -> Scenario:

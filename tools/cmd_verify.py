@@ -7,9 +7,9 @@ from pathlib import Path
 
 import click
 
-from tools.progress import advance_to, progress_bar
-from tools.verify import VerifyError
-from tools.verify import verify as check
+from shoal.tools.progress import advance_to, progress_bar
+from shoal.tools.verify import VerifyError
+from shoal.tools.verify import verify as check
 
 
 @click.command()

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import click
 
-from bus.acl import WORLD
-from bus.runtime import exit_on_signals
-from tools.cmd_simulate import json_safe, load_for_cli
-from tools.options import bus_options, client_config, open_session
-from tools.report import render_summary
-from world.process import World, WorldAbort, WorldOptions
+from shoal.bus.acl import WORLD
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.cmd_simulate import json_safe, load_for_cli
+from shoal.tools.options import bus_options, client_config, open_session
+from shoal.tools.report import render_summary
+from shoal.world.process import World, WorldAbort, WorldOptions
 
 
 @click.command()

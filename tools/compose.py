@@ -24,7 +24,7 @@ from typing import Any
 
 import yaml
 
-from world.scenario import Scenario
+from shoal.world.scenario import Scenario
 
 PORT = 7447
 ENDPOINT = f"tcp/router:{PORT}"

@@ -12,8 +12,8 @@ from collections import defaultdict
 from collections.abc import Callable, Hashable, Iterable, Mapping
 from typing import TypeVar
 
-from tools.procfs import cpu_seconds
-from tools.swarm import Swarm
+from shoal.tools.procfs import cpu_seconds
+from shoal.tools.swarm import Swarm
 
 Reader = Callable[[], "float | None"]  # CPU seconds of one process so far, None if unknown
 Process = tuple[str, Hashable, Reader]  # (kind, a key naming it, its reader)

@@ -20,11 +20,11 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
-from bus.geometry import FloatArray
-from bus.path import path_positions
-from world.metrics import Summary, clearances, formation_errors, pair_distances, summarize
-from world.scenario import Scenario
-from world.trajectory import Trajectory
+from shoal.bus.geometry import FloatArray
+from shoal.bus.path import path_positions
+from shoal.world.metrics import Summary, clearances, formation_errors, pair_distances, summarize
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
 
 SNAPSHOTS = 6  # formation snapshots drawn along the trajectories (start and end included)
 

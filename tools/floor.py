@@ -16,10 +16,10 @@ from collections import deque
 
 import zenoh
 
-from bus.keys import Keys, agent_of
-from bus.links import collect, publisher, subscribe, watch_presence
-from bus.runtime import Inbox, announce_ready
-from tools.logger import BATCH_S
+from shoal.bus.keys import Keys, agent_of
+from shoal.bus.links import collect, publisher, subscribe, watch_presence
+from shoal.bus.runtime import Inbox, announce_ready
+from shoal.tools.logger import BATCH_S
 
 _TICK = struct.Struct("<i")
 

@@ -17,8 +17,8 @@ import subprocess
 import time
 from typing import IO
 
-from tools.lines import LineReader
-from tools.procfs import START_TIME, STATE, stat_fields
+from shoal.tools.lines import LineReader
+from shoal.tools.procfs import START_TIME, STATE, stat_fields
 
 
 class ForkServerGone(RuntimeError):

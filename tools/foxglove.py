@@ -24,14 +24,14 @@ from importlib import resources
 
 import numpy as np
 
-from bus.geometry import FloatArray
-from bus.types import Event, TickRecord
-from tools.foxglove_msgs import Json, log, vec3s
-from tools.foxglove_plots import SCHEMAS as PLOT_SCHEMAS
-from tools.foxglove_plots import TOPICS as PLOT_TOPICS
-from tools.foxglove_plots import plots
-from tools.foxglove_scene import Layers
-from world.scenario import Scenario
+from shoal.bus.geometry import FloatArray
+from shoal.bus.types import Event, TickRecord
+from shoal.tools.foxglove_msgs import Json, log, vec3s
+from shoal.tools.foxglove_plots import SCHEMAS as PLOT_SCHEMAS
+from shoal.tools.foxglove_plots import TOPICS as PLOT_TOPICS
+from shoal.tools.foxglove_plots import plots
+from shoal.tools.foxglove_scene import Layers
+from shoal.world.scenario import Scenario
 
 WORLD = "/shoal/scene/world"
 SENSING = "/shoal/scene/sensing"
@@ -93,7 +93,7 @@ def schema_text(name: str) -> bytes:
     """The schema data of a channel: Foxglove's published JSON schema for ``foxglove.*``
     (shipped in tools/foxglove_schemas/), shoal's own for the scalar channels."""
     if name.startswith("foxglove."):
-        files = resources.files("tools.foxglove_schemas")
+        files = resources.files("shoal.tools.foxglove_schemas")
         return files.joinpath(f"{name.removeprefix('foxglove.')}.json").read_bytes()
     return json.dumps(PLOT_SCHEMAS[name], indent=1, ensure_ascii=False).encode()
 

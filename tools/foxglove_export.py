@@ -33,13 +33,13 @@ from mcap.records import Chunk, ChunkIndex
 from mcap.stream_reader import get_chunk_data_stream
 from mcap.writer import CompressionType, Writer
 
-from bus import codec
-from bus.errors import DecodeError
-from bus.types import Event, TickRecord
-from tools.foxglove import SCHEMAS_VERSION, TOPICS, RunLog, ViewOptions, schema_text, views
-from tools.mcap_salvage import LogError, check_log
-from world.errors import ScenarioError
-from world.loader import parse_scenario
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
+from shoal.bus.types import Event, TickRecord
+from shoal.tools.foxglove import SCHEMAS_VERSION, TOPICS, RunLog, ViewOptions, schema_text, views
+from shoal.tools.mcap_salvage import LogError, check_log
+from shoal.world.errors import ScenarioError
+from shoal.world.loader import parse_scenario
 
 CHUNK_BYTES = 1024 * 1024  # mcap's default: a reader (Foxglove) seeks in steps of one chunk
 SUFFIX = ".foxglove.mcap"

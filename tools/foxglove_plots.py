@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from bus.types import TickRecord
-from tools.foxglove_msgs import Json
-from world.metrics import clearances, formation_errors, pair_distances
-from world.scenario import Scenario
-from world.trajectory import Trajectory
+from shoal.bus.types import TickRecord
+from shoal.tools.foxglove_msgs import Json
+from shoal.world.metrics import clearances, formation_errors, pair_distances
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
 
 DIGITS = 6  # µm: finer than any distance the run resolves, and short JSON
 

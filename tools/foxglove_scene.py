@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bus.geometry import shaped
-from bus.path import path_positions
-from bus.types import TickRecord
-from tools.foxglove_msgs import (
+from shoal.bus.geometry import shaped
+from shoal.bus.path import path_positions
+from shoal.bus.types import TickRecord
+from shoal.tools.foxglove_msgs import (
     LINE_LIST,
     LINE_LOOP,
     LINE_STRIP,
@@ -39,7 +39,7 @@ from tools.foxglove_msgs import (
     vec3,
     vec3s,
 )
-from world.scenario import Scenario
+from shoal.world.scenario import Scenario
 
 LEADER: RGBA = (0.12, 0.47, 0.71, 1.0)
 FOLLOWER: RGBA = (0.17, 0.63, 0.17, 1.0)

@@ -16,17 +16,17 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from bus import codec
-from bus.acl import MONITOR
-from bus.errors import DecodeError
-from bus.keys import Keys
-from bus.links import subscribe, watch_presence
-from bus.runtime import Inbox, warn
-from tools.certs import make_material
-from tools.cpu import CpuWindow, swarm_processes
-from tools.options import client_config, open_session
-from tools.progress import progress_bar
-from tools.swarm import ChildFailed, Swarm
+from shoal.bus import codec
+from shoal.bus.acl import MONITOR
+from shoal.bus.errors import DecodeError
+from shoal.bus.keys import Keys
+from shoal.bus.links import subscribe, watch_presence
+from shoal.bus.runtime import Inbox, warn
+from shoal.tools.certs import make_material
+from shoal.tools.cpu import CpuWindow, swarm_processes
+from shoal.tools.options import client_config, open_session
+from shoal.tools.progress import progress_bar
+from shoal.tools.swarm import ChildFailed, Swarm
 
 _PEAK_RSS = re.compile(r"peak_rss_kb (\d+)")
 _STATS = re.compile(r"^agent \d+: neighbour states heard .*$", re.MULTILINE)

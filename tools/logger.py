@@ -17,12 +17,12 @@ from pathlib import Path
 
 import zenoh
 
-from bus import codec
-from bus.errors import DecodeError
-from bus.keys import Keys
-from bus.links import collect, watch_presence
-from bus.runtime import Inbox, announce_ready, warn
-from tools.mcap_log import McapLog
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
+from shoal.bus.keys import Keys
+from shoal.bus.links import collect, watch_presence
+from shoal.bus.runtime import Inbox, announce_ready, warn
+from shoal.tools.mcap_log import McapLog
 
 BATCH_S = 0.01  # s between two drains of what arrived
 QUIET_S = 0.5  # s without a message that ends the drain after the world's token vanished

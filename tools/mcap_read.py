@@ -8,10 +8,10 @@ from typing import Any
 
 from mcap.reader import make_reader
 
-from bus import codec
-from bus.errors import DecodeError
-from bus.types import TickRecord
-from world.trajectory import Trajectory
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
+from shoal.bus.types import TickRecord
+from shoal.world.trajectory import Trajectory
 
 
 def iter_channel(path: Path, topic_suffix: str) -> Iterator[tuple[str, bytes, int]]:

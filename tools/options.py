@@ -10,10 +10,10 @@ from typing import Any, TypeVar
 import click
 import zenoh
 
-from bus.errors import WireError
-from bus.keys import Keys
-from bus.secure import Identity, Material
-from bus.zconfig import zenoh_config
+from shoal.bus.errors import WireError
+from shoal.bus.keys import Keys
+from shoal.bus.secure import Identity, Material
+from shoal.bus.zconfig import zenoh_config
 
 F = TypeVar("F", bound=Callable[..., Any])
 

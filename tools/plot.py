@@ -7,10 +7,10 @@ from pathlib import Path
 
 from mcap.exceptions import McapError
 
-from tools.mcap_read import read_documents, read_trajectory
-from tools.mcap_salvage import LogError, check_log
-from world.errors import ScenarioError
-from world.loader import parse_scenario
+from shoal.tools.mcap_read import read_documents, read_trajectory
+from shoal.tools.mcap_salvage import LogError, check_log
+from shoal.world.errors import ScenarioError
+from shoal.world.loader import parse_scenario
 
 
 class PlotError(ValueError):
@@ -22,7 +22,7 @@ FORMATS = ("png", "svg")
 
 def load_view(path: Path) -> object:
     """The run recorded in ``path`` as a ``tools.figures.RunView``."""
-    from tools.figures import RunView  # matplotlib is an optional extra; import on use
+    from shoal.tools.figures import RunView  # matplotlib is an optional extra; import on use
 
     try:
         check_log(path)
@@ -57,7 +57,7 @@ def plot(
     (``runs/x.mcap`` gives ``x-trajectories.png``, …: two runs never share a figure); the files
     written. PlotError, before anything is drawn, if one of them exists, unless ``overwrite``."""
     try:
-        from tools.figures import FIGURES, RunView
+        from shoal.tools.figures import FIGURES, RunView
     except ImportError as exc:
         raise PlotError(
             f"shoal plot needs matplotlib ({exc}); install it with: pip install 'shoal[plot]'"

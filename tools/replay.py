@@ -12,7 +12,7 @@ from pathlib import Path
 import zenoh
 from mcap.reader import make_reader
 
-from bus.links import publisher
+from shoal.bus.links import publisher
 
 MATCH_WAIT_S = 1.0  # how long to wait for a subscriber per key before playing anyway
 

@@ -13,12 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.controller import Controller
-from bus.geometry import FloatArray
-from bus.types import AgentState
-from world.kinematics import actuate, integrate, sense_all
-from world.scenario import Scenario
-from world.trajectory import Trajectory
+from shoal.agent.controller import Controller
+from shoal.bus.geometry import FloatArray
+from shoal.bus.types import AgentState
+from shoal.world.kinematics import actuate, integrate, sense_all
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
 
 Progress = Callable[[int], None]
 

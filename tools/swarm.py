@@ -28,9 +28,9 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO
 
-from tools.forks import Forked, ForkServerGone, Zygote
-from tools.lines import LineReader
-from tools.procfs import cpu_seconds
+from shoal.tools.forks import Forked, ForkServerGone, Zygote
+from shoal.tools.lines import LineReader
+from shoal.tools.procfs import cpu_seconds
 
 _PR_SET_PDEATHSIG = 1
 _PR_SET_NAME = 15
@@ -170,7 +170,7 @@ class Swarm:
                 raise ChildFailed(f"{name}: {exc}") from None
         else:
             stdout = subprocess.PIPE if ready_pipe else subprocess.DEVNULL
-            command = [*prefix, sys.executable, "-m", "tools", *args]
+            command = [*prefix, sys.executable, "-m", "shoal.tools", *args]
             popen = _start(command, log, stdin=subprocess.DEVNULL, stdout=stdout)
         child = Child(name, popen, log, role)
         self.children.append(child)
@@ -184,7 +184,7 @@ class Swarm:
             log = self.log_dir / "agent-fork-server.log"
             at = args.index("--run") if "--run" in args[:-1] else None
             label = [] if at is None else args[at : at + 2]
-            command = [sys.executable, "-m", "tools.zygote", *label]
+            command = [sys.executable, "-m", "shoal.tools.zygote", *label]
             popen = _start(command, log, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
             self.children.append(Child("agent fork server", popen, log, "zygote"))
             self.zygote = Zygote(popen, str(log))

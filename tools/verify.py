@@ -7,11 +7,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from tools.mcap_read import read_documents, read_ticks
-from tools.mcap_salvage import LogError, check_log
-from tools.simulator import run
-from world.errors import ScenarioError
-from world.loader import parse_scenario
+from shoal.tools.mcap_read import read_documents, read_ticks
+from shoal.tools.mcap_salvage import LogError, check_log
+from shoal.tools.simulator import run
+from shoal.world.errors import ScenarioError
+from shoal.world.loader import parse_scenario
 
 
 class VerifyError(ValueError):

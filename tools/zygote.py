@@ -32,13 +32,13 @@ import sys
 import traceback
 from typing import Any
 
-from tools.swarm import adopt_supervisor, die_with, name_process
+from shoal.tools.swarm import adopt_supervisor, die_with, name_process
 
 if __name__ == "__main__":
     adopt_supervisor()  # before the slow imports: the server dies with the supervisor
 
-from tools.cli import main as _cli  # before numpy: no OpenBLAS thread pool
-from tools.cmd_agent import agent as _agent  # noqa: F401  (what every child will need)
+from shoal.tools.cli import main as _cli  # before numpy: no OpenBLAS thread pool
+from shoal.tools.cmd_agent import agent as _agent  # noqa: F401  (what every child will need)
 
 # -- the zygote process --------------------------------------------------------------------------
 

@@ -23,12 +23,12 @@ import warnings
 
 import numpy as np
 
-from bus.geometry import segment_distance
-from bus.path import path_positions, peak_speed
-from bus.types import Waypoints
-from world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
-from world.graph import FloatArray, communication_graph, hop_distances, reached_from_leader
-from world.scenario import Scenario
+from shoal.bus.geometry import segment_distance
+from shoal.bus.path import path_positions, peak_speed
+from shoal.bus.types import Waypoints
+from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
+from shoal.world.graph import FloatArray, communication_graph, hop_distances, reached_from_leader
+from shoal.world.scenario import Scenario
 
 
 def check_assumptions(s: Scenario) -> None:

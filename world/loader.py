@@ -1,7 +1,8 @@
-"""Scenario files: YAML in, a validated :class:`~world.scenario.Scenario` out.
+"""Scenario files: YAML in, a validated :class:`~shoal.world.scenario.Scenario` out.
 
-Every problem raises :class:`~world.errors.ScenarioError` naming the field (``control.beta``,
-``agents[2].offset``); a broken paper assumption raises :class:`~world.errors.AssumptionError`.
+Every problem raises :class:`~shoal.world.errors.ScenarioError` naming the field (``control.beta``,
+``agents[2].offset``); a broken paper assumption raises
+:class:`~shoal.world.errors.AssumptionError`.
 Unknown fields are refused, so a typo never silently falls back to a default. The file format is
 documented in docs/scenarios.md.
 """
@@ -19,10 +20,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from bus.types import PathSpec, Reshape, Sinusoid, Vector, Waypoints
-from world.assumptions import check_assumptions
-from world.errors import ScenarioError
-from world.scenario import AgentSpec, Control, Obstacle, Scenario
+from shoal.bus.types import PathSpec, Reshape, Sinusoid, Vector, Waypoints
+from shoal.world.assumptions import check_assumptions
+from shoal.world.errors import ScenarioError
+from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario
 
 _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
@@ -51,7 +52,7 @@ _CONTROL_DEFAULTS: dict[str, float] = {
 
 def builtin_names() -> list[str]:
     """Names of the scenarios shipped with shoal."""
-    files = resources.files("world.scenarios")
+    files = resources.files("shoal.world.scenarios")
     return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".yaml"))
 
 
@@ -59,7 +60,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     """A built-in scenario by name, or a scenario file by path."""
     path = Path(name_or_path)
     if str(name_or_path) in builtin_names() and not path.exists():
-        text = resources.files("world.scenarios").joinpath(f"{name_or_path}.yaml").read_text()
+        text = resources.files("shoal.world.scenarios").joinpath(f"{name_or_path}.yaml").read_text()
         return parse_scenario(text)
     if not path.is_file():
         known = ", ".join(builtin_names())

@@ -12,11 +12,11 @@ from typing import Any
 
 import numpy as np
 
-from bus.geometry import FloatArray, rotation
-from bus.path import path_position, peak_speed
-from world.scenario import Scenario
-from world.theory import convergence_bound
-from world.trajectory import Trajectory
+from shoal.bus.geometry import FloatArray, rotation
+from shoal.bus.path import path_position, peak_speed
+from shoal.world.scenario import Scenario
+from shoal.world.theory import convergence_bound
+from shoal.world.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

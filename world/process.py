@@ -1,6 +1,7 @@
 """The world process: the lockstep clock, kinematics and sensing for every agent, over Zenoh.
 
-A thin loop around :func:`world.kinematics.sense_all` and :func:`world.kinematics.integrate`:
+A thin loop around :func:`shoal.world.kinematics.sense_all` and
+:func:`shoal.world.kinematics.integrate`:
 each tick it sends every live agent its sensing, waits until every live agent's command for the
 tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
 configuration (a queryable) and follows agents' presence by liveliness: an agent whose token
@@ -20,16 +21,16 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from bus import codec
-from bus.errors import DecodeError
-from bus.keys import Keys, agent_of
-from bus.links import publisher, still_present, subscribe, watch_presence
-from bus.runtime import Arrival, Inbox, warn
-from bus.types import AgentState, Command, Event, TickRecord
-from world.kinematics import actuate, integrate, sense_all
-from world.metrics import summarize
-from world.scenario import Scenario
-from world.trajectory import Trajectory
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
+from shoal.bus.keys import Keys, agent_of
+from shoal.bus.links import publisher, still_present, subscribe, watch_presence
+from shoal.bus.runtime import Arrival, Inbox, warn
+from shoal.bus.types import AgentState, Command, Event, TickRecord
+from shoal.world.kinematics import actuate, integrate, sense_all
+from shoal.world.metrics import summarize
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
 
 
 class WorldAbort(RuntimeError):

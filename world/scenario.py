@@ -1,8 +1,8 @@
 """The scenario model: a frozen, validated description of one run.
 
-Loaded from YAML by :mod:`world.loader`; checked against the paper's assumptions by
-:mod:`world.assumptions`. Lengths in metres, times in seconds, angles in radians. Agent ids are
-1..n; agent 1 is the leader and its offset is zero.
+Loaded from YAML by :mod:`shoal.world.loader`; checked against the paper's assumptions by
+:mod:`shoal.world.assumptions`. Lengths in metres, times in seconds, angles in radians. Agent
+ids are 1..n; agent 1 is the leader and its offset is zero.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from functools import cached_property
 
 import numpy as np
 
-from bus.types import AgentConfig, ControlParams, PathSpec, Reshape, Vector
-from world.graph import FloatArray, adjacency, communication_graph, diameter
+from shoal.bus.types import AgentConfig, ControlParams, PathSpec, Reshape, Vector
+from shoal.world.graph import FloatArray, adjacency, communication_graph, diameter
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,7 +35,7 @@ class AgentSpec:
 
 @dataclass(frozen=True, slots=True)
 class Control:
-    """The gains and thresholds of the scenario (see :class:`bus.types.ControlParams`)."""
+    """The gains and thresholds of the scenario (see :class:`shoal.bus.types.ControlParams`)."""
 
     alpha: float
     beta: float

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from world.graph import FloatArray, follower_matrix
+from shoal.world.graph import FloatArray, follower_matrix
 
 
 def formation_error(positions: FloatArray, offsets: FloatArray) -> FloatArray:

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from bus.geometry import FloatArray
-from bus.types import TickRecord
+from shoal.bus.geometry import FloatArray
+from shoal.bus.types import TickRecord
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ desired tracks, where obstacles matter.
 Every field is written as scenario YAML first and then loaded from that text, so the saved file
 *is* the field: ``shoal simulate FILE`` (or ``shoal campaign --rerun FILE`` for a field the
 loader refuses on purpose) reproduces it bit for bit. The judge of "inside" is the loader itself
-(:func:`world.assumptions.check_assumptions`); nothing here re-implements a check. Sampling is
+(:func:`shoal.world.assumptions.check_assumptions`); nothing here re-implements a check. Sampling is
 by rejection with a bounded number of tries per obstacle, and fails with :class:`FieldError`.
 
 Modes: ``inside`` satisfies every load-time check. Each other mode breaks one thing (see
@@ -31,15 +31,15 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agent.consensus import passage_bid
-from bus.geometry import FloatArray, shaped
-from bus.path import path_position, peak_speed
-from bus.types import PathSpec, Sinusoid, Waypoints
-from world import assumptions
-from world.errors import BetaWarning, ScenarioError, ScenarioWarning, WorldError
-from world.graph import adjacency, reached_from_leader
-from world.loader import parse_scenario, scenario_from_dict
-from world.scenario import Obstacle, Scenario
+from shoal.agent.consensus import passage_bid
+from shoal.bus.geometry import FloatArray, shaped
+from shoal.bus.path import path_position, peak_speed
+from shoal.bus.types import PathSpec, Sinusoid, Waypoints
+from shoal.world import assumptions
+from shoal.world.errors import BetaWarning, ScenarioError, ScenarioWarning, WorldError
+from shoal.world.graph import adjacency, reached_from_leader
+from shoal.world.loader import parse_scenario, scenario_from_dict
+from shoal.world.scenario import Obstacle, Scenario
 
 
 @dataclass(frozen=True)
@@ -288,7 +288,7 @@ def _header(base: Scenario, seed: int, mode: str) -> str:
         what = f"outside: breaks {b.assumption}: {b.what}"
     rerun = "shoal campaign --rerun" if mode in REFUSED else "shoal simulate"
     return (
-        f"# A random obstacle field of `shoal campaign` (world/fields.py): base {base.name!r}, "
+        f"# A random obstacle field of `shoal campaign` (tools/fields.py): base {base.name!r}, "
         f"seed {seed}, mode {mode}.\n# {what}.\n# Reproduce: {rerun} THIS_FILE\n"
     )
 
