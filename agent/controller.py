@@ -46,7 +46,6 @@ class Memory:
     bid : this agent's current value in Algorithm 1.
     sigma_consensus : the factor agreed in the last finished epoch, applied now.
     busy : ticks in a row this follower has been busy (evading, filtered or far from its slot).
-    lagging : this follower was far from its slot at the last tick (filter mode).
     calm : ticks in a row it has not been busy, counted up to CALM_TAUS heading time constants.
     route : a leader's waypoints still to go (with the safety filter), else None.
     """
@@ -57,15 +56,13 @@ class Memory:
     sigma_consensus: float
     busy: int = 0
     route: tuple[FloatArray, ...] | None = None
-    lagging: bool = False
     calm: int = 0
 
 
 # With the safety filter u^o grows to at most this many times r_j + ρ + ε (agent/collision.py):
 # twice what a ray through the centre needs.
 RATCHET_CAP = 2.0
-# s: the longest a follower busy evading or filtered, but in its slot, abstains from bidding for
-# a contraction (see Memory.busy); one far from its slot abstains for as long as it is.
+# s: the longest a busy follower abstains from bidding for a contraction (see Memory.busy).
 BUSY_TIME = 5.0
 # A follower is far from its slot (busy) while ‖e_i‖∞ / deg_i exceeds this many β·dt: the
 # sign term's chattering band (the default convergence tolerance).
@@ -149,8 +146,7 @@ class Controller:
                 - self._shaped(demanded * memory.sigma_consensus, theta)[0]
             )
             manoeuvring = p.filtered and (
-                memory.lagging
-                or 0 < memory.busy <= self.busy_ticks
+                0 < memory.busy <= self.busy_ticks
                 or (memory.busy == 0 and memory.calm < self.calm_ticks)
             )
             bid = (
@@ -191,7 +187,6 @@ class Controller:
             agreed,
             busy=memory.busy,
             route=memory.route,
-            lagging=memory.lagging,
             calm=memory.calm,
         )
         sigma, theta = self.shape(tick, agreed)
@@ -249,7 +244,6 @@ class Controller:
             sigma_consensus=memory.sigma_consensus,
             busy=busy,
             route=route,
-            lagging=p.filtered and lag > self.busy_error,
             calm=0 if busy else min(memory.calm + 1, self.calm_ticks),
         )
         command = Command(agent_id=cfg.agent_id, tick=sensing.tick, velocity=out, filtered=filtered)
