@@ -26,9 +26,9 @@ from shoal.bus.links import subscribe
 from shoal.bus.runtime import Inbox
 from shoal.bus.types import Event
 from shoal.bus.zconfig import zenoh_config
-from shoal.tools.launch import free_port
-from shoal.tools.procfs import PPID, START_TIME, STATE, stat_fields
-from shoal.tools.swarm import Child, Swarm
+from shoal.tools.procs.launch import free_port
+from shoal.tools.procs.procfs import PPID, START_TIME, STATE, stat_fields
+from shoal.tools.procs.swarm import Child, Swarm
 from shoal.world.loader import load_scenario
 
 PYTHON = [sys.executable, "-m", "shoal.tools"]

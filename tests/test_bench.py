@@ -39,7 +39,7 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
 
 
 def test_the_filter_benchmark_times_real_calls_idle_and_active() -> None:
-    from shoal.tools.bench_filter import bench_filter
+    from shoal.tools.bench.filter import bench_filter
 
     figures = bench_filter(repeats=1)
     assert figures["agent_ticks"] == 9500

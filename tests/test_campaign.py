@@ -1,5 +1,5 @@
-"""`shoal campaign` and its field generator (tools/fields.py): determinism, inside fields pass
-every load-time check, each outside field breaks exactly what it names, and a small campaign
+"""`shoal campaign` and its field generator (tools/campaign/fields.py): determinism, inside fields
+pass every load-time check, each outside field breaks exactly what it names, and a small campaign
 through the CLI whose saved failures replay exactly."""
 
 from __future__ import annotations
@@ -12,9 +12,7 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from shoal.tools.campaign import judge
-from shoal.tools.cli import main
-from shoal.tools.fields import (
+from shoal.tools.campaign.fields import (
     BREACHES,
     REFUSED,
     FieldError,
@@ -24,6 +22,8 @@ from shoal.tools.fields import (
     make_field,
     needed_contraction,
 )
+from shoal.tools.campaign.runner import judge
+from shoal.tools.cli import main
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
 from shoal.world.loader import load_scenario, parse_scenario

@@ -1,5 +1,5 @@
-"""`shoal compose` and tools/compose.py without Docker: the generated file's structure, that its
-environment variables are options the commands really read, and that docker/compose.yaml is
+"""`shoal compose` and tools/deploy/compose.py without Docker: the generated file's structure, that
+its environment variables are options the commands really read, and that docker/compose.yaml is
 exactly the generator's output for `default` (so it never goes stale)."""
 
 from __future__ import annotations
@@ -16,9 +16,15 @@ from click.testing import CliRunner
 from conftest import run_cli, unique
 
 from shoal.tools.cli import main
-from shoal.tools.compose import ENDPOINT, SCENARIO_PATH, compose_dict, compose_yaml, run_id_for
-from shoal.tools.launch import free_port
-from shoal.tools.swarm import Swarm
+from shoal.tools.deploy.compose import (
+    ENDPOINT,
+    SCENARIO_PATH,
+    compose_dict,
+    compose_yaml,
+    run_id_for,
+)
+from shoal.tools.procs.launch import free_port
+from shoal.tools.procs.swarm import Swarm
 from shoal.world.loader import builtin_names, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""CPU accounting per kind of process (tools/cpu.py), as ``shoal bench`` reports it."""
+"""CPU accounting per kind of process (tools/procs/cpu.py), as ``shoal bench`` reports it."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from shoal.tools.cpu import CpuWindow, of_pid, per_tick_us, swarm_processes
-from shoal.tools.procfs import cpu_seconds
-from shoal.tools.swarm import Child, Swarm
+from shoal.tools.procs.cpu import CpuWindow, of_pid, per_tick_us, swarm_processes
+from shoal.tools.procs.procfs import cpu_seconds
+from shoal.tools.procs.swarm import Child, Swarm
 
 
 def test_per_tick_figures_are_per_process_means_and_a_total_over_all() -> None:

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from shoal.tools.compose import compose_yaml
-from shoal.tools.mcap_read import read_documents, read_ticks, read_trajectory
+from shoal.tools.deploy.compose import compose_yaml
+from shoal.tools.log.reader import read_documents, read_ticks, read_trajectory
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
 

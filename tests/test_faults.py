@@ -42,9 +42,9 @@ from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.path import peak_speed
 from shoal.bus.runtime import Inbox
 from shoal.bus.types import Event
-from shoal.tools.bench_drops import measure
-from shoal.tools.mcap_read import iter_channel, read_ticks, read_trajectory
-from shoal.tools.swarm import Swarm
+from shoal.tools.bench.drops import measure
+from shoal.tools.log.reader import iter_channel, read_ticks, read_trajectory
+from shoal.tools.procs.swarm import Swarm
 from shoal.world.loader import load_scenario
 from shoal.world.metrics import formation_errors
 from shoal.world.theory import convergence_bound, formation_error

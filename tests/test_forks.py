@@ -1,5 +1,5 @@
-"""The agents' fork server (tools/zygote.py, tools/forks.py) with real processes: what a forked
-process reports, and that no way of ending the server leaves one of them behind."""
+"""The agents' fork server (tools/procs/zygote.py, tools/procs/forks.py) with real processes: what a
+forked process reports, and that no way of ending the server leaves one of them behind."""
 
 from __future__ import annotations
 
@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from conftest import descendants, still_running_after
 
-from shoal.tools.forks import Forked, ForkServerGone, Zygote
-from shoal.tools.launch import free_port
-from shoal.tools.lines import LineReader
-from shoal.tools.swarm import ChildFailed, Swarm
+from shoal.tools.procs.forks import Forked, ForkServerGone, Zygote
+from shoal.tools.procs.launch import free_port
+from shoal.tools.procs.lines import LineReader
+from shoal.tools.procs.swarm import ChildFailed, Swarm
 
 
 def _router_args() -> list[str]:

@@ -30,8 +30,10 @@ from shoal.bus import codec
 from shoal.bus.keys import Keys
 from shoal.bus.types import Event, TickRecord
 from shoal.tools.cli import main
-from shoal.tools.cmd_export import export_beside
-from shoal.tools.foxglove import (
+from shoal.tools.foxglove.export import export_beside, sibling
+from shoal.tools.foxglove.msgs import arrow, dashes, vec3s
+from shoal.tools.foxglove.plots import CLEARANCE, FORMATION_ERROR, OMEGA
+from shoal.tools.foxglove.views import (
     AGENTS,
     FRAMES,
     GRAPH,
@@ -47,17 +49,14 @@ from shoal.tools.foxglove import (
     schema_text,
     views,
 )
-from shoal.tools.foxglove_export import sibling
-from shoal.tools.foxglove_msgs import arrow, dashes, vec3s
-from shoal.tools.foxglove_plots import CLEARANCE, FORMATION_ERROR, OMEGA
-from shoal.tools.mcap_log import McapLog
+from shoal.tools.log.writer import McapLog
 from shoal.tools.simulator import run as simulate_ticks
 from shoal.tools.simulator import simulate
 from shoal.world.loader import parse_scenario
 from shoal.world.metrics import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
-VENDORED = ROOT / "tools" / "foxglove_schemas"
+VENDORED = ROOT / "tools" / "foxglove" / "schemas"
 T0 = 1_790_000_000_123_456_789  # ns: a log time in 2026
 LOG_STEP = 7_000_000  # ns between tick records: log time is not simulated time (dt = 20 ms)
 

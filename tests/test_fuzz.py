@@ -1038,9 +1038,9 @@ def test_every_process_drops_and_counts_fuzzed_payloads_and_the_run_stays_exact(
 ) -> None:
     from mcap.reader import make_reader
 
-    from shoal.tools.mcap_read import read_documents, read_trajectory
+    from shoal.tools.log.reader import read_documents, read_trajectory
+    from shoal.tools.procs.swarm import Swarm
     from shoal.tools.simulator import simulate
-    from shoal.tools.swarm import Swarm
     from shoal.tools.verify import verify
 
     scenario = shortened(tmp_path, "sinusoid", duration=5.0)
@@ -1112,7 +1112,7 @@ def test_the_world_counts_commands_that_come_before_tick_0(router: str, tmp_path
     agent can command before it has sensed tick 0, so every such message is bad)."""
     from shoal.bus.links import watch_presence
     from shoal.bus.runtime import Inbox
-    from shoal.tools.swarm import Swarm
+    from shoal.tools.procs.swarm import Swarm
 
     scenario = shortened(tmp_path, "sinusoid", duration=0.5)
     scn = load_scenario(scenario)

@@ -28,9 +28,9 @@ import pytest
 from conftest import shortened, stop, unique
 
 from shoal.bus import codec
-from shoal.tools.mcap_read import iter_channel, read_trajectory
+from shoal.tools.log.reader import iter_channel, read_trajectory
+from shoal.tools.procs.swarm import Child, Swarm
 from shoal.tools.simulator import simulate
-from shoal.tools.swarm import Child, Swarm
 from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.netns

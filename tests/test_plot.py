@@ -13,9 +13,9 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgba
 from matplotlib.lines import Line2D
 
+from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.cli import main
-from shoal.tools.fields import FieldOptions, make_field
-from shoal.tools.figures import (
+from shoal.tools.plot.figures import (
     FIGURES,
     RunView,
     colour,

@@ -14,7 +14,7 @@ from conftest import PYTHON, client
 from shoal.bus.links import subscribe
 from shoal.bus.runtime import Inbox
 from shoal.tools.cli import main
-from shoal.tools.replay import Selection, messages
+from shoal.tools.log.replay import Selection, messages
 from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration

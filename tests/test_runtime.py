@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from shoal.tools.swarm import SUPERVISOR_ENV
+from shoal.tools.procs.swarm import SUPERVISOR_ENV
 
 _HANGS_IN_CLEANUP = """
 import threading
@@ -54,8 +54,8 @@ def test_a_clean_up_that_hangs_is_ended_by_the_watchdog_even_through_a_second_si
 
 
 def test_a_child_whose_supervisor_is_not_its_parent_leaves_at_once() -> None:
-    """tools/swarm.py, adopt_supervisor: a child started for a supervisor that has died (so the
-    child was re-parented) exits 1 before doing anything; under its real supervisor it runs."""
+    """tools/procs/swarm.py, adopt_supervisor: a child started for a supervisor that has died (so
+    the child was re-parented) exits 1 before doing anything; under its real supervisor it runs."""
     command = [sys.executable, "-m", "shoal.tools", "scenarios"]
     env = {**os.environ, SUPERVISOR_ENV: "1"}  # init is nobody's supervisor here
     orphan = subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from conftest import json_of, run_cli
 
-from shoal.tools.fields import FieldOptions, make_field
-from shoal.tools.mcap_read import read_trajectory
+from shoal.tools.campaign.fields import FieldOptions, make_field
+from shoal.tools.log.reader import read_trajectory
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario, parse_scenario
 

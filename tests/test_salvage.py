@@ -15,11 +15,11 @@ from conftest import client, start_run, unique
 from mcap.reader import make_reader
 
 from shoal.tools.cli import main
-from shoal.tools.mcap_log import McapLog
-from shoal.tools.mcap_read import read_ticks, read_trajectory
-from shoal.tools.mcap_salvage import inspect_file, is_finished
+from shoal.tools.log.reader import read_ticks, read_trajectory
+from shoal.tools.log.salvage import inspect_file, is_finished
+from shoal.tools.log.writer import McapLog
+from shoal.tools.procs.swarm import Swarm
 from shoal.tools.simulator import simulate
-from shoal.tools.swarm import Swarm
 from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration
@@ -116,7 +116,7 @@ def _copy_with(src: Path, dst: Path, *, tick: int) -> None:
     from mcap.writer import Writer
 
     from shoal.bus import codec
-    from shoal.tools.mcap_salvage import Scan, records
+    from shoal.tools.log.salvage import Scan, records
 
     scan, ids = Scan(), {}
     with dst.open("wb") as f:
@@ -149,9 +149,9 @@ def test_a_later_scenario_on_the_runs_key_does_not_replace_the_worlds(tmp_path: 
 
     from shoal.bus import codec
     from shoal.bus.keys import Keys
-    from shoal.tools.logger import _write
-    from shoal.tools.mcap_log import McapLog
-    from shoal.tools.mcap_read import read_documents
+    from shoal.tools.log.logger import _write
+    from shoal.tools.log.reader import read_documents
+    from shoal.tools.log.writer import McapLog
 
     keys, out = Keys("forged"), tmp_path / "run.mcap"
     received = deque(

@@ -43,11 +43,11 @@ from shoal.bus.keys import Keys
 from shoal.bus.secure import Identity, Material
 from shoal.bus.types import AgentState, Command, Event, Sensing
 from shoal.bus.zconfig import zenoh_config
-from shoal.tools.certs import issue, make_material
-from shoal.tools.launch import free_port
-from shoal.tools.mcap_read import iter_channel, read_documents, read_trajectory
+from shoal.tools.deploy.certs import issue, make_material
+from shoal.tools.log.reader import iter_channel, read_documents, read_trajectory
+from shoal.tools.procs.launch import free_port
+from shoal.tools.procs.swarm import Child, Swarm
 from shoal.tools.simulator import simulate
-from shoal.tools.swarm import Child, Swarm
 from shoal.tools.verify import verify
 from shoal.world.loader import load_scenario
 

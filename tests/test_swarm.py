@@ -31,10 +31,10 @@ from mcap.reader import make_reader
 
 from shoal.bus import codec
 from shoal.bus.types import AgentState, Sensing
-from shoal.tools.cmd_simulate import json_safe
-from shoal.tools.mcap_read import iter_channel, read_trajectory
+from shoal.tools.commands.report import json_safe
+from shoal.tools.log.reader import iter_channel, read_trajectory
+from shoal.tools.procs.swarm import Swarm
 from shoal.tools.simulator import simulate
-from shoal.tools.swarm import Swarm
 from shoal.world.loader import builtin_names, load_scenario
 from shoal.world.metrics import summarize
 

@@ -1,6 +1,6 @@
 """``python -m tools``: the same as the ``shoal`` console script (used to spawn children)."""
 
-from shoal.tools.swarm import adopt_supervisor
+from shoal.tools.procs.swarm import adopt_supervisor
 
 adopt_supervisor()  # before anything slow: a child of shoal run dies with it, even while starting
 

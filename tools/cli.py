@@ -14,30 +14,33 @@ from __future__ import annotations
 
 import importlib
 import os
+from typing import Any
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before anything imports numpy
 
 import click
 
+from shoal.tools.errors import SessionError
+
 COMMANDS = {
-    "run": "shoal.tools.cmd_run:run",
-    "simulate": "shoal.tools.cmd_simulate:simulate",
-    "scenarios": "shoal.tools.cmd_scenarios:scenarios",
-    "bench": "shoal.tools.cmd_bench:bench",
-    "router": "shoal.tools.cmd_router:router",
-    "world": "shoal.tools.cmd_world:world",
-    "agent": "shoal.tools.cmd_agent:agent",
-    "logger": "shoal.tools.cmd_logger:logger",
-    "certs": "shoal.tools.cmd_certs:certs",
-    "inspect": "shoal.tools.cmd_inspect:inspect",
-    "recover": "shoal.tools.cmd_recover:recover",
-    "verify": "shoal.tools.cmd_verify:verify",
-    "replay": "shoal.tools.cmd_replay:replay",
-    "export": "shoal.tools.cmd_export:export",
-    "plot": "shoal.tools.cmd_plot:plot",
-    "floor": "shoal.tools.cmd_floor:floor",
-    "campaign": "shoal.tools.cmd_campaign:campaign",
-    "compose": "shoal.tools.cmd_compose:compose",
+    "run": "shoal.tools.commands.run:run",
+    "simulate": "shoal.tools.commands.simulate:simulate",
+    "scenarios": "shoal.tools.commands.scenarios:scenarios",
+    "bench": "shoal.tools.commands.bench:bench",
+    "router": "shoal.tools.commands.router:router",
+    "world": "shoal.tools.commands.world:world",
+    "agent": "shoal.tools.commands.agent:agent",
+    "logger": "shoal.tools.commands.logger:logger",
+    "certs": "shoal.tools.commands.certs:certs",
+    "inspect": "shoal.tools.commands.inspect:inspect",
+    "recover": "shoal.tools.commands.recover:recover",
+    "verify": "shoal.tools.commands.verify:verify",
+    "replay": "shoal.tools.commands.replay:replay",
+    "export": "shoal.tools.commands.export:export",
+    "plot": "shoal.tools.commands.plot:plot",
+    "floor": "shoal.tools.commands.floor:floor",
+    "campaign": "shoal.tools.commands.campaign:campaign",
+    "compose": "shoal.tools.commands.compose:compose",
 }
 
 
@@ -56,6 +59,13 @@ class LazyGroup(click.Group):
         if not isinstance(command, click.Command):
             raise TypeError(f"{target} is not a click command")
         return command
+
+    def invoke(self, ctx: click.Context) -> Any:
+        """Run the subcommand; the library's errors a person can act on become its message."""
+        try:
+            return super().invoke(ctx)
+        except SessionError as exc:
+            raise click.ClickException(str(exc)) from None
 
 
 @click.group(

@@ -7,8 +7,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from shoal.tools.mcap_read import read_documents, read_ticks
-from shoal.tools.mcap_salvage import LogError, check_log
+from shoal.tools.log.reader import read_documents, read_ticks
+from shoal.tools.log.salvage import LogError, check_log
 from shoal.tools.simulator import run
 from shoal.world.errors import ScenarioError
 from shoal.world.loader import parse_scenario

@@ -84,8 +84,8 @@ def run(
     is ``lockstep`` (the reference's result, bit for bit) or ``realtime``. ``out`` is never
     replaced unless ``overwrite``. Raises ``FileExistsError``, or ``RuntimeError`` if a process
     of the swarm fails or one dies during the run."""
-    from shoal.tools.launch import RunPlan, launch
-    from shoal.tools.swarm import ChildFailed
+    from shoal.tools.procs.launch import RunPlan, launch
+    from shoal.tools.procs.swarm import ChildFailed
     from shoal.world.loader import builtin_names
 
     if clock not in ("lockstep", "realtime"):
@@ -126,10 +126,10 @@ class Log:
 
 def read_log(path: str | os.PathLike[str]) -> Log:
     """The scenario and trajectory recorded in the MCAP log at ``path``. Raises
-    ``shoal.tools.mcap_salvage.LogError`` for a file that is not a readable shoal log (an
+    ``shoal.tools.log.salvage.LogError`` for a file that is not a readable shoal log (an
     unfinished one: ``shoal recover`` it first) and ``ValueError`` if it holds no run."""
-    from shoal.tools.mcap_read import read_documents, read_trajectory
-    from shoal.tools.mcap_salvage import check_log
+    from shoal.tools.log.reader import read_documents, read_trajectory
+    from shoal.tools.log.salvage import check_log
     from shoal.world.loader import parse_scenario
 
     log = Path(path)

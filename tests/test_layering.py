@@ -1,0 +1,60 @@
+"""The layering contracts of pyproject.toml ([tool.importlinter]) hold, and they catch a break:
+checked on a copy of the tree assembled as the installed package, with and without a forbidden
+import added."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+LINT = Path(sys.executable).parent / "lint-imports"
+
+
+def _tree(dest: Path) -> Path:
+    """shoal/ as the wheel lays it out: src/shoal's files with agent/, bus/, world/, tools/."""
+    pkg = dest / "shoal"
+    shutil.copytree(ROOT / "src" / "shoal", pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    for name in ("agent", "bus", "world", "tools"):
+        shutil.copytree(ROOT / name, pkg / name, ignore=shutil.ignore_patterns("__pycache__"))
+    return pkg
+
+
+def _lint(site: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [str(LINT), "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
+        env={**os.environ, "PYTHONPATH": str(site)}, cwd=site,
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+
+
+@pytest.mark.skipif(not LINT.exists(), reason="import-linter is a dev dependency")
+@pytest.mark.parametrize(
+    ("module", "line", "contract"),
+    [
+        ("bus/keys.py", "import shoal.agent.formation", "bus imports nothing else"),
+        ("world/graph.py", "import shoal.tools.simulator", "never tools"),
+        ("agent/formation.py", "import shoal.world.graph", "do not import each other"),
+        ("tools/commands/plot.py", "import shoal.tools.commands.run", "no command imports"),
+    ],
+)
+def test_each_contract_holds_and_fails_on_a_forbidden_import(
+    tmp_path: Path, module: str, line: str, contract: str
+) -> None:
+    pkg = _tree(tmp_path)
+    kept = _lint(tmp_path)
+    assert kept.returncode == 0, kept.stdout + kept.stderr
+    target = pkg / module
+    target.write_text(target.read_text(encoding="utf-8") + f"\n{line}  # noqa\n", encoding="utf-8")
+    broken = _lint(tmp_path)
+    assert broken.returncode == 1, broken.stdout
+    verdicts = [
+        line for line in broken.stdout.splitlines()
+        if contract in line and line.endswith(("KEPT", "BROKEN"))
+    ]  # fmt: skip
+    assert verdicts and all(v.endswith("BROKEN") for v in verdicts), broken.stdout

@@ -1,0 +1,1 @@
+"""``shoal bench``: performance figures next to the floor they are held against."""

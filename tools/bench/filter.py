@@ -1,0 +1,69 @@
+"""What the safety filter costs per agent-tick (``shoal bench --filter``), warm, on the calls a
+real run makes: every call of one campaign field where the filter acts is recorded, then replayed
+through :func:`shoal.bus.safety.safe_velocity` alone. Beside it, in the same invocation, the whole
+reference simulator's CPU per agent-tick (the agent's laws, sensing, the world's second pass):
+the budget the filter takes its share of."""
+
+from __future__ import annotations
+
+import statistics
+import time
+from typing import Any
+from unittest import mock
+
+from shoal.agent import controller
+from shoal.bus import safety
+from shoal.bus.types import Sensing, Vector
+from shoal.tools.campaign.fields import make_field
+from shoal.tools.simulator import simulate
+from shoal.world.loader import load_scenario
+
+Call = tuple[Vector, Sensing, int, dict[str, Any]]
+
+
+def _record(seed: int) -> tuple[list[Call], float, int]:
+    """Every filter call of campaign field ``seed`` (base ``obstacles``), the simulator's CPU
+    seconds for the field, and its agent-ticks."""
+    field = make_field(load_scenario("obstacles"), seed)
+    calls: list[Call] = []
+    real = safety.safe_velocity
+
+    def recording(nominal: Vector, sensing: Sensing, agent_id: int, **kw: Any) -> Any:
+        calls.append((nominal, sensing, agent_id, kw))
+        return real(nominal, sensing, agent_id, **kw)
+
+    with mock.patch.object(controller, "safe_velocity", recording):
+        start = time.process_time()
+        simulate(field)
+        cpu = time.process_time() - start
+    return calls, cpu, field.steps * field.n
+
+
+def _per_call_us(calls: list[Call], repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):  # the best of several passes: warm caches, least interference
+        start = time.process_time()
+        for nominal, sensing, agent_id, kw in calls:
+            safety.safe_velocity(nominal, sensing, agent_id, **kw)
+        best = min(best, time.process_time() - start)
+    return best / max(1, len(calls)) * 1e6
+
+
+def bench_filter(seed: int = 6, repeats: int = 5) -> dict[str, Any]:
+    """The figures, as one JSON-able dict (µs of CPU)."""
+    calls, sim_cpu, agent_ticks = _record(seed)
+    flags = [safety.safe_velocity(c[0], c[1], c[2], **c[3]).active for c in calls]
+    active = [c for c, f in zip(calls, flags, strict=True) if f]
+    idle = [c for c, f in zip(calls, flags, strict=True) if not f]
+    rows = [len(c[1].obstacle_ids) + len(c[1].agent_ids) for c in calls]
+    return {
+        "field": f"obstacles-inside-{seed}",
+        "agent_ticks": agent_ticks,
+        "filter_us_per_agent_tick": round(_per_call_us(calls, repeats), 2),
+        "filter_us_idle": round(_per_call_us(idle, repeats), 2),
+        "filter_us_active": round(_per_call_us(active, repeats), 2) if active else None,
+        "active_share": round(len(active) / max(1, len(calls)), 4),
+        "sensed_per_call_median": statistics.median(rows) if rows else 0,
+        "target_us": 10.0,
+        "simulator_us_per_agent_tick": round(sim_cpu / agent_ticks * 1e6, 2),
+    }

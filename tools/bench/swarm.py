@@ -1,0 +1,151 @@
+"""``shoal bench``: lockstep ticks/s against the bare-bus floor, start-up time, realtime latency
+and memory per agent, all measured in one invocation on this machine.
+
+For each formation size the floor (tools/bench/floor.py: the same processes and message pattern,
+no control math) runs first and the real lockstep run right after, each with its own router,
+so both see the same machine. Hypervisor steal during each measurement is read from /proc/stat
+and reported with it: on a shared 2-core VM it can swing results 2-5x.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import tempfile
+import uuid
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from shoal.tools.bench.formations import bench_scenario
+from shoal.tools.procs.cpu import CpuWindow, swarm_processes
+from shoal.tools.procs.launch import RunPlan, RunResult, free_port, launch
+from shoal.tools.procs.swarm import Swarm
+
+
+@dataclass(frozen=True)
+class Steal:
+    """CPU time stolen by the hypervisor between two readings of /proc/stat (fraction)."""
+
+    before: tuple[int, ...]
+
+    @classmethod
+    def start(cls) -> Steal:
+        return cls(_cpu_times())
+
+    def fraction(self) -> float:
+        now = _cpu_times()
+        delta = [b - a for a, b in zip(self.before, now, strict=True)]
+        total = sum(delta)
+        return round(delta[7] / total, 3) if total and len(delta) > 7 else 0.0
+
+
+def _cpu_times() -> tuple[int, ...]:
+    with open("/proc/stat") as f:
+        return tuple(int(x) for x in f.readline().split()[1:])
+
+
+def measure_floor(n: int, ticks: int, timeout: float = 120.0) -> dict[str, Any]:
+    run, endpoint = f"floor-{uuid.uuid4().hex[:8]}", f"tcp/127.0.0.1:{free_port()}"
+    common = ["--run", run, "--connect", endpoint]
+    steal = Steal.start()
+    with Swarm() as swarm:
+        listen = ["router", "--listen", endpoint]
+        router = swarm.spawn("router", "router", listen, ready_pipe=True)
+        swarm.wait_ready(router, timeout)
+        listeners = [
+            swarm.spawn(role, "logger", ["floor", "listener", "--role", role, *common],
+                        ready_pipe=True)
+            for role in ("logger", "monitor")
+        ]  # fmt: skip
+        world = swarm.spawn(
+            "floor world",
+            "world",
+            ["floor", "world", "--agents", str(n), "--ticks", str(ticks), *common],
+            ready_pipe=True,
+        )
+        for i in range(1, n + 1):
+            args = ["floor", "agent", "--agents", str(n), "--id", str(i), *common]
+            swarm.spawn(f"floor agent {i}", "agent", args)
+        for child in listeners:
+            swarm.wait_ready(child, timeout)
+        cpu = CpuWindow(lambda: swarm_processes(swarm))
+        swarm.wait_ready(world, timeout, prefix="ready floor ticking")
+        cpu.open()
+        result = json.loads(swarm.wait_ready(world, timeout, prefix="{"))
+        cpu.close(ticks)
+        swarm.expect_exit({"world", "agent", "logger"}, timeout=10.0)
+    return {
+        "ticks_per_s": round(result["ticks_per_s"], 1),
+        "steal": steal.fraction(),
+        "cpu_us_per_tick": cpu.figures,
+    }
+
+
+def measure_run(n: int, ticks: int, workdir: Path, *, clock: str = "lockstep") -> RunResult:
+    path = workdir / f"bench-{n}.yaml"
+    path.write_text(yaml.safe_dump(bench_scenario(n, ticks)))
+    plan = RunPlan(
+        scenario=str(path),
+        agents=n,
+        steps=ticks,
+        out=workdir / f"bench-{n}-{clock}.mcap",
+        run_id=f"bench-{uuid.uuid4().hex[:8]}",
+        clock=clock,
+        measure_cpu=True,
+    )
+    return launch(plan)
+
+
+def bench(
+    sizes: Sequence[int], ticks: int, *, say: Callable[[str], None] = lambda _s: None
+) -> dict[str, Any]:
+    """Every figure of the benchmark, as one JSON-able dict."""
+    rows, rss, startup = [], [], {}
+    with tempfile.TemporaryDirectory(prefix="shoal-bench-") as tmp:
+        work = Path(tmp)
+        for n in sizes:
+            t = ticks if n <= 20 else max(ticks // 2, 50)
+            say(f"{n} agents: floor")
+            floor = measure_floor(n, t)
+            say(f"{n} agents: lockstep run")
+            steal = Steal.start()
+            real = measure_run(n, t, work)
+            ours = real.summary["ticks_per_s"]
+            rows.append(
+                {
+                    "agents": n,
+                    "ticks": t,
+                    "floor_ticks_per_s": floor["ticks_per_s"],
+                    "lockstep_ticks_per_s": ours,
+                    "floor_over_lockstep": round(floor["ticks_per_s"] / ours, 3),
+                    "latency_p50_ms": real.summary["latency_p50_ms"],
+                    "latency_p99_ms": real.summary["latency_p99_ms"],
+                    "steal_floor": floor["steal"],
+                    "steal_lockstep": steal.fraction(),
+                    "cpu_us_per_tick": {
+                        "floor": floor["cpu_us_per_tick"],
+                        "lockstep": real.cpu_us_per_tick,
+                    },
+                }
+            )
+            startup[str(n)] = real.startup_s
+            rss += real.agent_peak_rss_mb
+        say("5 agents: realtime run")
+        rt = measure_run(5, ticks, work, clock="realtime")
+    return {
+        "lockstep": rows,
+        "startup_s": startup,
+        "realtime_5_agents": {
+            k: rt.summary[k]
+            for k in ("latency_p50_ms", "latency_p99_ms", "missed_deadlines", "ticks_per_s")
+        },
+        "agent_peak_rss_mb": {
+            "max": round(max(rss), 1) if rss else None,
+            "median": round(statistics.median(rss), 1) if rss else None,
+            "processes": len(rss),
+        },
+    }

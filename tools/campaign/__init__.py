@@ -1,0 +1,1 @@
+"""``shoal campaign``: random obstacle fields, run and judged by the thousand."""

@@ -1,0 +1,1 @@
+"""The ``shoal`` command's verbs, one module each, and what they share."""

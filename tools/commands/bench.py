@@ -1,0 +1,99 @@
+"""``shoal bench``: performance figures next to their floor, measured in the same run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.bench.drops import bench_drops
+from shoal.tools.bench.filter import bench_filter
+from shoal.tools.bench.swarm import bench as run_bench
+from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
+
+
+@click.command()
+@click.option("--sizes", default="5,10,20,50", help="Formation sizes, comma-separated.")
+@click.option("--ticks", default=400, help="Ticks per lockstep run (halved above 20 agents).")
+@click.option(
+    "--out", type=click.Path(dir_okay=False, path_type=Path), help="Also write JSON here."
+)
+@click.option(
+    "--drops",
+    help="Instead: the steady-state formation error of realtime runs at these fractions of "
+    "lost neighbour messages, e.g. 0,0.05,0.2 (tools/bench/drops.py).",
+)
+@click.option("--scenario", default="sinusoid", help="--drops: the scenario to run.")
+@click.option("--speed", default=1.0, help="--drops: simulated seconds per wall-clock second.")
+@click.option("--settle", default=10.0, help="--drops: seconds excluded as the transient.")
+@click.option("--repeats", default=1, help="--drops: sweeps over the rates.")
+@click.option(
+    "--filter",
+    "filter_only",
+    is_flag=True,
+    help="Only the safety filter's CPU per agent-tick, beside the reference simulator's.",
+)
+def bench(
+    sizes: str,
+    ticks: int,
+    out: Path | None,
+    drops: str | None,
+    scenario: str,
+    speed: float,
+    settle: float,
+    repeats: int,
+    filter_only: bool,
+) -> None:
+    """Measure lockstep ticks/s against a bare Zenoh exchange of the same message pattern
+    (with each kind of process's CPU per tick in both), the time until every agent is up,
+    realtime command latency and memory per agent process; or, with --drops, the formation
+    error against the fraction of lost neighbour messages.
+
+    Prints one JSON object; progress goes to stderr.
+    """
+    exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    if filter_only:
+        _emit(bench_filter(), out)
+        return
+    if drops is not None:
+        try:
+            rates = [float(s) for s in drops.split(",") if s.strip()]
+        except ValueError:
+            raise click.BadParameter(f"{drops!r} is not a list of fractions") from None
+        if not rates or not all(0 <= r < 1 for r in rates):
+            raise click.BadParameter("every drop rate must be in [0, 1)", param_hint="--drops")
+        try:
+            result = bench_drops(
+                rates, scenario=scenario, speed=speed, settle=settle, repeats=repeats, say=_say
+            )
+        except ChildFailed as exc:
+            raise click.ClickException(str(exc)) from None
+        _emit(result, out)
+        return
+    try:
+        numbers = [int(s) for s in sizes.split(",") if s.strip()]
+    except ValueError:
+        raise click.BadParameter(f"{sizes!r} is not a comma-separated list of integers") from None
+    if not numbers or min(numbers) < 2:
+        raise click.BadParameter("every size needs a leader and a follower (≥ 2)")
+    try:
+        result = run_bench(numbers, ticks, say=_say)
+    except ChildFailed as exc:
+        raise click.ClickException(str(exc)) from None
+    _say("the safety filter, per agent-tick")
+    result["safety_filter"] = bench_filter()
+    _emit(result, out)
+
+
+def _say(text: str) -> None:
+    click.echo(text, err=True)
+
+
+def _emit(result: dict[str, Any], out: Path | None) -> None:
+    text = json.dumps(result, indent=2)
+    if out is not None:
+        out.write_text(text + "\n")
+    click.echo(text)

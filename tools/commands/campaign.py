@@ -1,0 +1,203 @@
+"""``shoal campaign``: the safety campaign over random obstacle fields (docs/campaign.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
+from shoal.tools.campaign.runner import measure, render, report, run_campaign, saved_stem, tasks
+from shoal.tools.campaign.runner import save_failures as write_failures
+from shoal.tools.campaign.swarms import render_swarms, run_swarms, swarm_report
+from shoal.tools.commands.options import load_for_cli
+from shoal.tools.commands.report import json_safe, render_summary
+from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
+from shoal.tools.progress import progress_bar
+from shoal.tools.simulator import simulate
+from shoal.world.errors import ScenarioError
+from shoal.world.metrics import summarize
+from shoal.world.scenario import Scenario
+
+
+def _count(text: str) -> tuple[int, int]:
+    low, _, high = text.partition("-")
+    try:
+        bounds = (int(low), int(high or low))
+    except ValueError:
+        raise click.BadParameter(f"expected N or LOW-HIGH, got {text!r}") from None
+    if not 0 <= bounds[0] <= bounds[1]:
+        raise click.BadParameter(f"expected 0 ≤ LOW ≤ HIGH, got {text!r}")
+    return bounds
+
+
+@click.command()
+@click.option("--base", default="obstacles", help="Scenario the fields are drawn around.")
+@click.option("--fields", "count", default=100, help="Fields inside the assumptions.")
+@click.option("--outside/--no-outside", default=True, help="Also run fields outside them.")
+@click.option("--outside-fields", default=20, help="Fields per broken assumption.")
+@click.option("--seed", default=0, help="Seed of the first field; field k has seed SEED+k.")
+@click.option("--jobs", default=os.cpu_count() or 1, help="Worker processes.")
+@click.option("--length", default=FieldOptions.length, help="Metres of the leader's path.")
+@click.option("--obstacles", default="2-5", help="Obstacles per field: N or LOW-HIGH.")
+@click.option("--spacing", default=0.0, help="Least free distance between obstacles, m.")
+@click.option("--sigma-max", type=float, help="Override σ_max (1: no contraction).")
+@click.option(
+    "--safety",
+    type=click.Choice(["filter", "paper", "both"]),
+    default="filter",
+    show_default=True,
+    help="Run the fields with the safety filter, with Algorithm 2 alone (the paper), or both "
+    "side by side (sets named SET/paper).",
+)
+@click.option(
+    "--swarm",
+    type=click.IntRange(min=1),
+    help="Instead: run the first N inside fields as distributed swarms (real processes).",
+)
+@click.option(
+    "--swarm-clock",
+    type=click.Choice(["lockstep", "realtime"]),
+    default="realtime",
+    show_default=True,
+    help="--swarm: the clock (lockstep runs must also equal the reference bit for bit).",
+)
+@click.option(
+    "--save-failures",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Write every field that collided to this directory as scenario YAML.",
+)
+@click.option(
+    "--rerun",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Run one saved field (even one the loader refuses) and print its summary.",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+def campaign(
+    base: str,
+    count: int,
+    outside: bool,
+    outside_fields: int,
+    seed: int,
+    jobs: int,
+    length: float,
+    obstacles: str,
+    spacing: float,
+    sigma_max: float | None,
+    safety: str,
+    swarm: int | None,
+    swarm_clock: str,
+    save_failures: Path | None,
+    rerun: Path | None,
+    as_json: bool,
+) -> None:
+    """Run many random obstacle fields through the reference simulator, in parallel.
+
+    Fields inside the paper's assumptions (every load-time check passes) and, with
+    --outside, fields that each break one (docs/campaign.md). Reports collisions, clearance
+    and convergence per set, and the filter's activity and stalls. Exit status 1 if any inside
+    field collides: that falsifies the guarantee (with --safety paper, the paper's
+    Corollary 1). Outside collisions are data. 2 if a field could not be drawn.
+    """
+    if rerun is not None:
+        _rerun(rerun, as_json)
+        return
+    options = FieldOptions(
+        length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max
+    )
+    scn = load_for_cli(base)
+    if swarm is not None:
+        _swarms(scn, seed, swarm, options, swarm_clock, as_json)
+        return
+    modes = ("filter", "paper") if safety == "both" else (safety,)
+    todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
+    if not as_json:  # said up front: --fields counts the inside fields only
+        sets = f"{count} inside the assumptions"
+        if outside:
+            sets += f" and {outside_fields} for each of the {len(BREACHES)} broken ones"
+        runs = f", each {' and '.join(modes)}" if len(modes) > 1 else ""
+        hint = "" if not outside else " (--no-outside: inside only)"
+        click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
+    start = time.perf_counter()
+    with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
+        outcomes = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
+    rep = report(outcomes, time.perf_counter() - start, max(1, jobs))
+    if save_failures is not None:
+        written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
+        for failure in rep["failures"]:
+            failure["file"] = written.get(saved_stem(failure["name"], failure["safety"]))
+    click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
+    _exit_status(rep, save_failures, "inside/paper" if safety == "paper" else "inside")
+
+
+def _swarms(
+    scn: Scenario, seed: int, count: int, options: FieldOptions, clock: str, as_json: bool
+) -> None:
+    exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    with progress_bar(count, f"{count} swarms ({clock}) around {scn.name}") as bar:
+        try:
+            rows = run_swarms(scn, seed, count, options, clock=clock, done=lambda _r: bar.update(1))
+        except ChildFailed as exc:
+            raise click.ClickException(str(exc)) from None
+    rep = swarm_report(rows, clock)
+    click.echo(json.dumps(_json_safe(rep)) if as_json else render_swarms(rep))
+    if rep["collided"] or rep["below_guard"] or rep["below_separation"] or rep["inexact"]:
+        sys.exit(1)
+
+
+def _exit_status(rep: dict[str, Any], saved: Path | None, judged: str) -> None:
+    inside = [f for f in rep["failures"] if f["set"] == judged]
+    if inside:
+        names = ", ".join(f["name"] for f in inside[:10]) + (" …" if len(inside) > 10 else "")
+        where = f"saved in {saved}" if saved else "rerun with --save-failures DIR to keep them"
+        click.echo(
+            f"{len(inside)} inside field(s) collided, which the guarantee rules out: "
+            f"{names} ({where})",
+            err=True,
+        )
+        sys.exit(1)
+    if rep["errors"]:
+        click.echo(f"{len(rep['errors'])} field(s) could not be drawn", err=True)
+        sys.exit(2)
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and (value != value or value in (float("inf"), float("-inf"))):
+        return None
+    return value
+
+
+def _rerun(path: Path, as_json: bool) -> None:
+    """Run one saved field; also those the loader refuses because they break an assumption."""
+    try:
+        field = load_field(path.read_text(encoding="utf-8"))
+    except ScenarioError as exc:
+        raise click.ClickException(f"{path}: {exc}") from None
+    traj = simulate(field)
+    result = summarize(field, traj)
+    outcome = measure(field, traj, result)
+    summary = json_safe(result.as_dict())
+    summary.update(
+        breaks=sorted(breaches(field)),
+        obstacle_collisions=outcome.obstacle_collisions,
+        agent_collisions=outcome.agent_collisions,
+    )
+    if as_json:
+        click.echo(json.dumps(summary))
+        return
+    click.echo(render_summary(summary))
+    click.echo(
+        f"{'collisions by kind':<24}  {outcome.obstacle_collisions} agent–obstacle, "
+        f"{outcome.agent_collisions} agent–agent"
+    )
+    click.echo(f"{'breaks':<24}  {', '.join(summary['breaks']) or 'nothing checked at load'}")

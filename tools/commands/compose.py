@@ -1,0 +1,54 @@
+"""``shoal compose``: write the docker compose file of a scenario (see tools/deploy/compose.py)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import click
+
+from shoal.tools.commands.options import load_for_cli
+from shoal.tools.deploy.compose import compose_yaml
+from shoal.world.loader import builtin_names
+
+# The checkout this command runs from, if it is one (an editable install): the image is built
+# from it. An installed wheel has no docker/Dockerfile beside its packages.
+_CHECKOUT = Path(__file__).resolve().parents[2]
+
+
+@click.command()
+@click.argument("scenario", default="default")
+@click.option(
+    "--out",
+    "-o",
+    type=click.Path(dir_okay=False, writable=True, path_type=Path),
+    help="Write the compose file here instead of to stdout.",
+)
+@click.option(
+    "--no-build",
+    is_flag=True,
+    help="Leave out the build section: the image ($SHOAL_IMAGE, else shoal) must exist.",
+)
+def compose(scenario: str, out: Path | None, no_build: bool) -> None:
+    """Write the docker compose file that runs SCENARIO (a built-in name or a YAML file):
+    a router, the world, the logger and one service per agent.
+
+    A built-in is run by name; a file's text is embedded in the compose file, so the file is
+    all that travels. When shoal runs from a checkout, the router's service builds the image
+    from it (docker/Dockerfile), with the path written relative to the compose file.
+    docker/compose.yaml is `shoal compose default -o docker/compose.yaml`.
+    """
+    scn = load_for_cli(scenario)
+    builtin = scenario in builtin_names() and not Path(scenario).exists()
+    context = None
+    if not no_build and (_CHECKOUT / "docker" / "Dockerfile").is_file():
+        here = (out.parent if out else Path()).resolve()
+        context = Path(os.path.relpath(_CHECKOUT, here)).as_posix()
+    text = compose_yaml(scn, builtin=builtin, label=scenario, build_context=context)
+    if out is None:
+        click.echo(text, nl=False)
+    else:
+        out.write_text(text, encoding="utf-8")
+        click.echo(
+            f"wrote {out} ({scn.n} agents); run it with: docker compose -f {out} up", err=True
+        )

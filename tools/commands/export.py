@@ -1,0 +1,66 @@
+"""``shoal export``: Foxglove views of a run, written beside its raw log (docs/foxglove.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from shoal.tools.foxglove.export import ExportError, ExportResult, sibling, with_progress
+from shoal.tools.foxglove.views import ViewOptions
+
+
+def describe(result: ExportResult) -> str:
+    return (
+        f"{result.out}: {result.messages} messages from {result.ticks} tick records, "
+        f"{result.bytes / 1e6:.1f} MB in {result.seconds:.1f} s"
+    )
+
+
+@click.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option(
+    "-o",
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="The views file [default: beside FILE, its .mcap replaced by .foxglove.mcap].",
+)
+@click.option(
+    "--scene-hz",
+    type=click.FloatRange(min=0.1, max=1000.0),
+    default=ViewOptions.scene_hz,
+    help="Rate of the 3D scene and the agents' frames, per second of simulated time.",
+)
+@click.option(
+    "--plot-hz",
+    type=click.FloatRange(min=0.1, max=1000.0),
+    default=ViewOptions.plot_hz,
+    help="Rate of the scalar channels, per simulated second (every tick if above 1/dt).",
+)
+@click.option("--force", is_flag=True, help="Overwrite the views file if it exists.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def export(
+    file: Path, out: Path | None, scene_hz: float, plot_hz: float, force: bool, as_json: bool
+) -> None:
+    """Write Foxglove views of the run logged in FILE: a 3D scene, agent frames, a log and
+    plottable metrics, as Foxglove JSON channels in a new MCAP file (FILE is not changed).
+
+    `shoal run` does this by itself at the end of a run; this is for older logs, or to choose
+    other rates. Open the views file in Foxglove (docs/foxglove.md).
+    """
+    options = ViewOptions(scene_hz=scene_hz, plot_hz=plot_hz)
+    target = out or sibling(file)
+    if target.exists() and not force and target.resolve() != file.resolve():
+        raise click.ClickException(f"{target} exists; pass --force to overwrite it")
+    try:
+        result = with_progress(file, out, options)
+    except ExportError as exc:
+        raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"{target}: cannot be written ({exc.strerror})") from None
+    if as_json:
+        fields = ("messages", "ticks", "seconds", "bytes")
+        click.echo(json.dumps({"out": str(result.out)} | {k: getattr(result, k) for k in fields}))
+    else:
+        click.echo(describe(result))

@@ -1,0 +1,67 @@
+"""``shoal replay``: republish a run's log onto Zenoh with its original keys and timing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from shoal.bus.runtime import exit_on_signals
+from shoal.tools.log.replay import Selection
+from shoal.tools.log.replay import replay as play
+from shoal.tools.log.salvage import LogError, check_log
+from shoal.tools.procs.session import client_config, open_session
+from shoal.tools.progress import progress_bar
+
+
+@click.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("-r", "--rate", type=click.FloatRange(min=0.001, min_open=False), default=1.0,
+              help="Playback speed factor.")  # fmt: skip
+@click.option("-l", "--loop", is_flag=True, help="Play again and again until interrupted.")
+@click.option("--start-offset", type=click.FloatRange(min=0.0), default=0.0,
+              help="Seconds into the log to start from.")  # fmt: skip
+@click.option("--topics", default="", help="Only these topics (Zenoh keys), comma-separated.")
+@click.option("-e", "--regex", default=None, help="Only topics matching this regex.")
+@click.option("-x", "--exclude-regex", default=None, help="Skip topics matching this regex.")
+@click.option("--connect", multiple=True, required=True, help="Zenoh router endpoint.")
+def replay(
+    file: Path,
+    rate: float,
+    loop: bool,
+    start_offset: float,
+    topics: str,
+    regex: str | None,
+    exclude_regex: str | None,
+    connect: tuple[str, ...],
+) -> None:
+    """Republish FILE's raw channels on their original Zenoh keys, in order, at their original
+    pace (times RATE)."""
+    exit_on_signals()
+    try:
+        check_log(file)  # before connecting: a bad file is said at once, router or not
+    except LogError as exc:
+        raise click.ClickException(str(exc)) from None
+    selection = Selection(
+        tuple(t for t in topics.split(",") if t), regex or None, exclude_regex or None
+    )
+    with open_session(client_config(connect, None, False), "replay") as session:
+        while True:
+            label = f"replaying {file.name}"
+            with progress_bar(1000, label) as bar:
+                sent = play(
+                    session,
+                    file,
+                    rate=rate,
+                    start_offset=start_offset,
+                    selection=selection,
+                    progress=lambda d, t: _advance(bar, d, t),
+                )
+            click.echo(f"{sent} messages replayed", err=True)
+            if not loop or sent == 0:
+                break
+
+
+def _advance(bar: Any, done: float, total: float) -> None:
+    bar.update(int(1000 * done / total) - bar.pos if total > 0 else 0)

@@ -1,0 +1,75 @@
+"""How a run's summary is shown to a person."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+
+def _fmt(value: Any, unit: str = "", digits: int = 3) -> str:
+    if value is None:
+        return "—"
+    if isinstance(value, float):
+        return f"{value:.{digits}f}{unit}"
+    return f"{value}{unit}"
+
+
+def render_summary(summary: dict[str, Any]) -> str:
+    """A short, aligned, human-readable block of the figures that matter."""
+    conv = summary["convergence_time"]
+    bound = summary["convergence_bound"]  # None (JSON's inf): β ≤ the leader's speed
+    if bound is not None and not math.isfinite(bound):
+        bound = None
+    within = conv is not None and bound is not None and conv <= bound
+    shown = f"bound {_fmt(bound, ' s', 2)}" if bound is not None else "no bound: β ≤ leader speed"
+    rows = [
+        (
+            "scenario",
+            f"{summary['scenario']}  ({summary['agents']} agents, "
+            f"{summary['steps']} steps of {summary['dt']} s)",
+        ),
+        ("collisions", _fmt(summary["collisions"])),
+        ("min clearance", _fmt(summary["min_clearance"], " m")),
+        ("min inter-agent distance", _fmt(summary["min_interagent_distance"], " m")),
+        (
+            "convergence",
+            f"{_fmt(conv, ' s', 2)} ({shown}, "
+            f"tolerance {_fmt(summary['tolerance'], ' m')}"
+            f"{', within bound' if within else ''})",
+        ),
+        ("final formation error", _fmt(summary["final_formation_error"], " m")),
+        ("agreed σ", f"{_fmt(summary['sigma'], '', 3)} (rounds {_fmt(summary['sigma_rounds'])})"),
+        ("Ω episodes", _fmt(summary["omega_episodes"])),
+    ]
+    if summary.get("safety", "filter") == "filter":
+        rows.append(
+            (
+                "safety filter",
+                f"active {100 * summary.get('filter_activity', 0.0):.2f} % of agent-ticks, "
+                f"stalls {_fmt(summary.get('stalls'))} "
+                f"(longest {_fmt(summary.get('longest_stall'), ' s', 2)})",
+            )
+        )
+    else:
+        rows.append(("safety filter", "off (safety: paper, Algorithm 2 alone)"))
+    if summary.get("clock") is not None:
+        rows.append(
+            (
+                "clock",
+                f"{summary['clock']}: {_fmt(summary.get('ticks_per_s'), ' ticks/s', 1)}, "
+                f"command latency p50 {_fmt(summary.get('latency_p50_ms'), ' ms', 2)} / "
+                f"p99 {_fmt(summary.get('latency_p99_ms'), ' ms', 2)}, "
+                f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
+            )
+        )
+    if summary.get("aborted"):
+        rows.append(("ended early", str(summary["aborted"])))
+    if summary.get("assumption2_violations"):
+        rows.append(("Assumption 2 broken", f"{summary['assumption2_violations']} ticks"))
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def json_safe(summary: dict[str, Any]) -> dict[str, Any]:
+    """inf is not JSON: an unbounded figure becomes null."""
+    return {k: (None if isinstance(v, float) and math.isinf(v) else v) for k, v in summary.items()}

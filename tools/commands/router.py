@@ -1,0 +1,94 @@
+"""``shoal router``: a Zenoh router (zenoh-python in router mode; no zenohd needed)."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import click
+import zenoh
+
+from shoal.bus.acl import ROUTER
+from shoal.bus.errors import WireError
+from shoal.bus.keys import Keys
+from shoal.bus.links import watch_presence
+from shoal.bus.runtime import Inbox, announce_ready, exit_on_signals
+from shoal.bus.secure import Identity, Material
+from shoal.bus.zconfig import zenoh_config
+from shoal.tools.commands.options import check_run_id
+from shoal.tools.procs.session import open_session
+
+
+@click.command()
+@click.option(
+    "--listen",
+    "-l",
+    multiple=True,
+    help="Endpoint to listen on (repeatable) [default: tcp/127.0.0.1:7447; with --secure, "
+    "tls/127.0.0.1:7447].",
+)
+@click.option("--connect", "-e", multiple=True, help="Another router to mesh with (repeatable).")
+@click.option(
+    "--zenoh-config",
+    "config_file",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+)
+@click.option(
+    "--exit-after-run",
+    metavar="RUN",
+    callback=check_run_id,
+    help="Exit 0 once run RUN is over: its world came and went and every process of the run "
+    "has left (one-shot deployments such as docker compose, where the router must end too).",
+)
+@click.option(
+    "--secure",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="Secured mode: TLS with mutual authentication, the users' passwords and the run's "
+    "access rules, all from DIR (made by `shoal certs DIR`; docs/security.md).",
+)
+def router(
+    listen: tuple[str, ...],
+    connect: tuple[str, ...],
+    config_file: Path | None,
+    exit_after_run: str | None,
+    secure: Path | None,
+) -> None:
+    """Run a Zenoh router until SIGINT/SIGTERM (or until run RUN is over)."""
+    exit_on_signals()
+    listen = listen or (f"{'tls' if secure else 'tcp'}/127.0.0.1:7447",)
+    identity = Identity(Material(secure), ROUTER) if secure else None
+    try:
+        conf = zenoh_config(
+            mode="router",
+            listen=listen,
+            connect=connect,
+            config_file=config_file,
+            secure=identity,
+        )
+    except WireError as exc:
+        raise click.ClickException(str(exc)) from None
+    with open_session(conf, "router") as session:
+        announce_ready(f"router {' '.join(listen)}")
+        if exit_after_run is None:
+            threading.Event().wait()  # until a signal turns into SystemExit
+        else:
+            wait_for_run_end(session, Keys(exit_after_run))
+
+
+def wait_for_run_end(session: zenoh.Session, keys: Keys) -> None:
+    """Return once the run's world token has appeared and vanished and no token of the run is
+    left (agents leave with the world, the logger after draining): the router's own session
+    sees every token routed through it, so no extra process is needed to watch the run."""
+    inbox = Inbox()
+    held = watch_presence(session, keys.alive_everyone, inbox)
+    present: set[str] = set()
+    world_seen = False
+    while not (world_seen and not present):
+        arrival = inbox.wait()
+        if arrival.kind == "up":
+            present.add(arrival.key)
+            world_seen = world_seen or arrival.key == keys.alive_world
+        elif arrival.kind == "down":
+            present.discard(arrival.key)
+    del held

@@ -1,0 +1,241 @@
+"""``shoal run``: a whole run as separate OS processes over Zenoh."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import uuid
+from collections.abc import Sequence
+from pathlib import Path
+
+import click
+
+from shoal.bus.errors import WireError
+from shoal.bus.runtime import exit_on_signals, warn
+from shoal.bus.secure import Material
+from shoal.tools.commands.options import check_run_id, drop_options, load_for_cli
+from shoal.tools.commands.report import json_safe, render_summary
+from shoal.tools.deploy.certs import CertError
+from shoal.tools.foxglove.export import export_beside, sibling
+from shoal.tools.log.salvage import is_finished
+from shoal.tools.procs.launch import RunPlan, launch
+from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
+from shoal.world.loader import builtin_names
+
+_DROPS = re.compile(r"injected drops (\d+) of (\d+)")
+
+
+def injected_drops(stats: Sequence[str]) -> dict[str, int]:
+    """The fault injection's totals over the agents' stats lines (agent/process.py, stats)."""
+    found = [m for line in stats if (m := _DROPS.search(line))]
+    return {
+        "dropped": sum(int(m.group(1)) for m in found),
+        "offered": sum(int(m.group(2)) for m in found),
+        "agents": len(found),
+    }
+
+
+def _where_the_log_is(out: Path) -> str:
+    """For a run that did not finish: where its log is and what to do with it."""
+    if not out.exists():
+        return ""
+    if is_finished(out):
+        return f"\nthe log of the run so far: {out}"
+    return (
+        f"\nthe log of the run so far: {out}, unfinished; "
+        f"`shoal recover {out} -o FIXED.mcap` keeps every complete chunk"
+    )
+
+
+@click.command()
+@click.argument("scenario", default="default")
+@click.option(
+    "--mode",
+    type=click.Choice(["lockstep", "realtime"]),
+    default="lockstep",
+    help="lockstep: the world advances once every live agent's command for the tick is in "
+    "(exact, deterministic); realtime: the world integrates at a fixed wall-clock rate with "
+    "each agent's latest command.",
+)
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0.01, max=100.0),
+    default=1.0,
+    help="realtime: simulated seconds per wall-clock second.",
+)
+@click.option(
+    "--out",
+    "-o",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="MCAP file to record the run in [default: runs/<scenario>-<run id>.mcap].",
+)
+@click.option(
+    "--connect", "-e", help="Use the Zenoh router at this endpoint instead of starting one."
+)
+@click.option(
+    "--run", "run_id", callback=check_run_id, help="Run id [default: a fresh random one]."
+)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+@click.option("--start-timeout", default=60.0, help="Seconds for every process to come up.")
+@click.option(
+    "--foxglove/--no-foxglove",
+    default=True,
+    help="Write Foxglove views beside the log, <log>.foxglove.mcap (docs/foxglove.md).",
+)
+@click.option(
+    "--force", is_flag=True, help="Overwrite the log (and its views) if they exist already."
+)
+@drop_options
+@click.option(
+    "--secure",
+    is_flag=True,
+    help="Secured mode: TLS with mutual authentication, a password per process and the "
+    "router's access rules, with fresh certificates for this run (docs/security.md).",
+)
+@click.option(
+    "--secure-dir",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="Secured mode with the material in DIR (`shoal certs DIR`), e.g. for a router "
+    "started by hand with --secure DIR; the run id defaults to the one DIR was made for.",
+)
+def run(
+    scenario: str,
+    mode: str,
+    speed: float,
+    out: Path | None,
+    connect: str | None,
+    run_id: str | None,
+    as_json: bool,
+    start_timeout: float,
+    foxglove: bool,
+    force: bool,
+    drop_rate: float,
+    drop_seed: int,
+    secure: bool,
+    secure_dir: Path | None,
+) -> None:
+    """Run SCENARIO with one OS process per agent, a world, a logger (and a router).
+
+    Prints the same summary as `shoal simulate`; the lockstep trajectory equals the reference
+    simulator's bit for bit, and the whole run is recorded in an MCAP file.
+    """
+    exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    if drop_rate > 0 and mode != "realtime":
+        raise click.BadParameter(
+            "needs --mode realtime: a lockstep run waits for every state, so a dropped one "
+            "would stall it forever",
+            param_hint="--drop-rate",
+        )
+    if speed != 1.0 and mode != "realtime":
+        raise click.BadParameter(
+            "needs --mode realtime: a lockstep run goes as fast as its processes can, and "
+            "its result does not depend on time",
+            param_hint="--speed",
+        )
+    scn = load_for_cli(scenario)
+    if secure and connect and secure_dir is None:
+        raise click.BadParameter(
+            "a router started elsewhere enforces the rules it was given: pass --secure-dir "
+            "with the directory it was started with",
+            param_hint="--secure",
+        )
+    if secure_dir is not None:
+        run_id = _check_material(secure_dir, run_id, scn.n)
+    run_id = run_id or uuid.uuid4().hex[:8]
+    plan = RunPlan(
+        scenario=scenario if scenario in builtin_names() else str(Path(scenario).resolve()),
+        agents=scn.n,
+        steps=scn.steps,
+        out=out or Path("runs") / f"{scn.name}-{run_id}.mcap",
+        run_id=run_id,
+        clock=mode,
+        speed=speed,
+        connect=connect,
+        start_timeout=start_timeout,
+        progress=not as_json,
+        drop_rate=drop_rate,
+        drop_seed=drop_seed,
+        secure=secure or secure_dir is not None,
+        secure_dir=secure_dir,
+        overwrite=force,
+    )
+    taken = [p for p in (plan.out, sibling(plan.out) if foxglove else None) if p and p.exists()]
+    if taken and not force:
+        raise click.ClickException(
+            f"{taken[0]} exists; pass --force to overwrite it, or --out another file"
+        )
+    try:  # the logger creates the file; say now, not after the swarm is up, if it cannot
+        plan.out.parent.mkdir(parents=True, exist_ok=True)
+        writable = os.access(plan.out.parent, os.W_OK)
+    except OSError:
+        writable = False
+    if not writable:
+        raise click.ClickException(f"{plan.out}: cannot be written (its folder is not writable)")
+    try:
+        result = launch(plan)
+    except (ChildFailed, CertError) as exc:
+        why = str(exc).rstrip(": \n")  # a killed child has no last words: no dangling colon
+        raise click.ClickException(f"{why}{_where_the_log_is(plan.out)}") from None
+    except SystemExit as exc:  # Ctrl-C or SIGTERM: the swarm has been stopped in order
+        if plan.out.exists():
+            warn(f"shoal run: interrupted{_where_the_log_is(plan.out)}")
+        raise SystemExit(exc.code) from None
+    views = export_beside(plan.out, progress=not as_json) if foxglove else None
+    summary = json_safe(result.summary)
+    drops = injected_drops(result.agent_stats) if drop_rate > 0 else None
+    if as_json:
+        extra = {
+            "injected_drops": drops,
+            "mode": mode,
+            "wall_s": round(result.wall_s, 3),
+            "startup_s": result.startup_s,
+            "mcap": str(plan.out),
+            "foxglove": str(views.out) if views else None,
+            "secure": plan.secure,
+        }
+        click.echo(json.dumps({**summary, **extra}))
+    else:
+        click.echo(render_summary(summary))
+        click.echo(
+            f"{'processes':<24}  {result.processes}, {result.wall_s:.1f} s wall, "
+            f"all agents up in {result.startup_s:.1f} s"
+        )
+        if drops is not None:
+            click.echo(
+                f"{'injected drops':<24}  {drops['dropped']} of {drops['offered']} neighbour "
+                f"states thrown away (--drop-rate {drop_rate:g}, --drop-seed {drop_seed})"
+            )
+        click.echo(f"{'log':<24}  {plan.out}")
+        if plan.secure:
+            click.echo(f"{'secured':<24}  TLS (mutual), passwords, router ACL for run {run_id}")
+        if views:
+            click.echo(f"{'foxglove views':<24}  {views.out}")
+    if summary.get("aborted"):
+        raise click.ClickException(f"the run ended early: {summary['aborted']}")
+    if result.lost:
+        raise click.ClickException(
+            f"agent process(es) died during the run: {', '.join(result.lost)} "
+            "(the world held them still and finished without them)"
+        )
+
+
+def _check_material(secure_dir: Path, run_id: str | None, agents: int) -> str:
+    """The run id the material in ``secure_dir`` was made for, if it fits this run: the
+    router's rules name one run and agents 1..N, and anything else would be refused."""
+    try:
+        made_for, made_agents = Material(secure_dir).scope()
+    except (WireError, KeyError, ValueError) as exc:
+        raise click.BadParameter(f"{secure_dir}: {exc}", param_hint="--secure-dir") from None
+    if run_id not in (None, made_for):
+        raise click.BadParameter(
+            f"{secure_dir} was made for run {made_for!r}, not {run_id!r}; re-run "
+            f"`shoal certs {secure_dir} --run {run_id} --agents {agents}`",
+            param_hint="--secure-dir",
+        )
+    if made_agents < agents:
+        raise click.BadParameter(
+            f"{secure_dir} has identities for {made_agents} agents; the scenario has {agents}",
+            param_hint="--secure-dir",
+        )
+    return made_for

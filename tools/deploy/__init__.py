@@ -1,0 +1,1 @@
+"""Deploying a run: docker compose files and the secured mode's certificates."""

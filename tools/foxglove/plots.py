@@ -1,0 +1,201 @@
+"""The scalar channels for Foxglove's Plot panel: formation error, distances, clearance, σ, Ω.
+
+Each message has ``tick``, ``t`` (simulated seconds, for a Plot whose x axis is a message path)
+and a headline ``value``; ``agents`` (or ``edges``) break it down, to be picked out in a Plot
+path with a filter such as ``.agents[:]{id==3}.value``. The numbers come from world/metrics.py
+(the same functions as the run's summary), applied to the tick records as the world logged them.
+
+The schemas are shoal's own (``shoal.*``), in the subset of JSON Schema Foxglove's decoder reads:
+objects with typed properties, arrays of numbers or objects, no nulls; so a channel that would
+have nothing to say (clearance without obstacles) is not written at all.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from shoal.bus.types import TickRecord
+from shoal.tools.foxglove.msgs import Json
+from shoal.world.metrics import clearances, formation_errors, pair_distances
+from shoal.world.scenario import Scenario
+from shoal.world.trajectory import Trajectory
+
+DIGITS = 6  # µm: finer than any distance the run resolves, and short JSON
+
+FORMATION_ERROR = "/shoal/metrics/formation_error"
+DISTANCE = "/shoal/metrics/distance"
+CLEARANCE = "/shoal/metrics/clearance"
+SIGMA = "/shoal/metrics/sigma"
+OMEGA = "/shoal/metrics/omega"
+
+
+def _number(description: str) -> Json:
+    return {"type": "number", "description": description}
+
+
+def _integer(description: str) -> Json:
+    return {"type": "integer", "description": description}
+
+
+def _schema(name: str, description: str, item: Json | None = None, **fields: Json) -> Json:
+    props: Json = {
+        "tick": _integer("tick k of the run"),
+        "t": _number("simulated time k·dt, s"),
+        **fields,
+    }
+    if item is not None:
+        props["agents"] = {"type": "array", "items": _object(item), "description": "per agent"}
+    return {"title": name, "description": description, **_object(props)}
+
+
+def _object(props: Json) -> Json:
+    return {"type": "object", "properties": props, "required": list(props)}
+
+
+SCHEMAS: dict[str, Json] = {
+    "shoal.FormationError": _schema(
+        "shoal.FormationError",
+        "Formation error ‖s_i − s_1 − R(θ_i)δ_i/σ_i‖_∞ of the followers (world/metrics.py)",
+        {"id": _integer("follower id"), "value": _number("its formation error, m")},
+        value=_number("largest formation error over the followers, m"),
+        tolerance=_number("convergence tolerance of the scenario, m"),
+    ),
+    "shoal.Distance": _schema(
+        "shoal.Distance",
+        "Distances between agents' centres",
+        value=_number("smallest distance over every pair of agents, m"),
+        limit=_number("two agents closer than this collide (2 × agent_radius), m"),
+        closest=_object({"a": _integer("agent id"), "b": _integer("agent id")}),
+        edges={
+            "type": "array",
+            "items": _object(
+                {
+                    "a": _integer("agent id"),
+                    "b": _integer("agent id"),
+                    "value": _number("distance between the edge's ends, m"),
+                }
+            ),
+            "description": "per edge of the sensing graph",
+        },
+    ),
+    "shoal.Clearance": _schema(
+        "shoal.Clearance",
+        "Distance from agents' centres to obstacles' edges",
+        {
+            "id": _integer("agent id"),
+            "value": _number("its clearance to the nearest obstacle, m"),
+            "obstacle": _integer("that obstacle's index (0-based, scenario order)"),
+        },
+        value=_number("smallest clearance over every agent and obstacle, m"),
+        limit=_number("an agent this close to an obstacle collides (agent_radius), m"),
+    ),
+    "shoal.Sigma": _schema(
+        "shoal.Sigma",
+        "Contraction factor σ (Algorithm 1) and rotation θ each agent applies",
+        {
+            "id": _integer("agent id"),
+            "value": _number("σ applied"),
+            "bid": _number("σ bid announced (Algorithm 1)"),
+            "theta": _number("rotation θ applied, rad"),
+        },
+        value=_number("largest σ applied"),
+    ),
+    "shoal.Omega": _schema(
+        "shoal.Omega",
+        "Evasion flags Ω_i (Algorithm 2)",
+        {"id": _integer("agent id"), "value": _integer("1 while evading (Ω_i), else 0")},
+        value=_integer("number of agents evading"),
+        alive=_integer("number of agents whose process is up"),
+    ),
+}
+
+TOPICS = {
+    FORMATION_ERROR: "shoal.FormationError",
+    DISTANCE: "shoal.Distance",
+    CLEARANCE: "shoal.Clearance",
+    SIGMA: "shoal.Sigma",
+    OMEGA: "shoal.Omega",
+}
+
+
+def trajectory_of(records: Sequence[TickRecord], dt: float) -> Trajectory:
+    """The records as a Trajectory (world/metrics.py's input); the row after the last record is
+    integrated as the world does."""
+    return Trajectory.from_records(records, dt)
+
+
+def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, Json]]:
+    """For each record, its message on every scalar topic (topic → message)."""
+    if not records:
+        return []
+    s, traj = scenario, trajectory_of(records, scenario.dt)
+    rows = len(records)
+    errors = _rounded(formation_errors(s, traj) if s.n > 1 else np.zeros((rows, 0)))
+    pairs = _rounded(pair_distances(traj)[:-1]) if s.n > 1 else None
+    clear = clearances(s, traj)[:-1] if s.obstacles else None
+    nearest = clear.argmin(axis=2).tolist() if clear is not None else None
+    clear_m = _rounded(clear.min(axis=2)) if clear is not None else None
+    pair_list = list(itertools.combinations(range(s.n), 2))  # pair_distances' column order
+    index = {pair: k for k, pair in enumerate(pair_list)}
+    edge_columns = [index[min(a, b) - 1, max(a, b) - 1] for a, b in s.edges]
+    tolerance = round(s.tolerance, DIGITS)
+    out = []
+    for k, r in enumerate(records):
+        head = {"tick": r.tick, "t": round(r.tick * s.dt, DIGITS)}
+        msgs: dict[str, Json] = {
+            FORMATION_ERROR: {
+                **head,
+                "value": max(errors[k], default=0.0),
+                "tolerance": tolerance,
+                "agents": [{"id": i + 2, "value": e} for i, e in enumerate(errors[k])],
+            },
+            SIGMA: {
+                **head,
+                "value": max(r.sigma),
+                "agents": [
+                    {"id": i + 1, "value": sig, "bid": bid, "theta": round(th, DIGITS)}
+                    for i, (sig, bid, th) in enumerate(zip(r.sigma, r.bid, r.theta, strict=True))
+                ],
+            },
+            OMEGA: {
+                **head,
+                "value": sum(r.omega),
+                "alive": sum(r.alive),
+                "agents": [{"id": i + 1, "value": int(w)} for i, w in enumerate(r.omega)],
+            },
+        }
+        if pairs is not None:
+            row = pairs[k]
+            closest = min(range(len(row)), key=row.__getitem__)
+            a, b = pair_list[closest]
+            msgs[DISTANCE] = {
+                **head,
+                "value": row[closest],
+                "limit": 2 * s.agent_radius,
+                "closest": {"a": a + 1, "b": b + 1},
+                "edges": [
+                    {"a": ea, "b": eb, "value": row[c]}
+                    for (ea, eb), c in zip(s.edges, edge_columns, strict=True)
+                ],
+            }
+        if clear_m is not None and nearest is not None:
+            msgs[CLEARANCE] = {
+                **head,
+                "value": min(clear_m[k]),
+                "limit": s.agent_radius,
+                "agents": [
+                    {"id": i + 1, "value": c, "obstacle": o}
+                    for i, (c, o) in enumerate(zip(clear_m[k], nearest[k], strict=True))
+                ],
+            }
+        out.append(msgs)
+    return out
+
+
+def _rounded(a: Any) -> list[list[float]]:
+    """Rows of plain floats rounded to µm, all at once (numpy), for the JSON."""
+    return list(np.round(np.asarray(a, dtype=np.float64), DIGITS).tolist())

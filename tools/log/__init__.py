@@ -1,0 +1,1 @@
+"""A run's MCAP log: the logger, writing, reading, salvaging and replaying it."""

@@ -1,0 +1,1 @@
+"""``shoal plot``: the paper's figures from a run's log."""

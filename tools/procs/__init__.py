@@ -1,0 +1,1 @@
+"""The processes of a run: launching, supervising, forking agents, their CPU."""

@@ -1,0 +1,224 @@
+"""Launching a whole run as separate OS processes and following it to its end.
+
+Used by ``shoal run`` and by the benchmark. The order is what makes the start race-free: the
+router (unless one is given), then the logger, the world and every agent at once; the world waits
+for every agent's, the logger's and this monitor's liveliness tokens before its first tick.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import socket
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from shoal.bus import codec
+from shoal.bus.acl import MONITOR
+from shoal.bus.errors import DecodeError
+from shoal.bus.keys import Keys
+from shoal.bus.links import subscribe, watch_presence
+from shoal.bus.runtime import Inbox, warn
+from shoal.tools.deploy.certs import make_material
+from shoal.tools.procs.cpu import CpuWindow, swarm_processes
+from shoal.tools.procs.session import client_config, open_session
+from shoal.tools.procs.swarm import ChildFailed, Swarm
+from shoal.tools.progress import progress_bar
+
+_PEAK_RSS = re.compile(r"peak_rss_kb (\d+)")
+_STATS = re.compile(r"^agent \d+: neighbour states heard .*$", re.MULTILINE)
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nobody listens on right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    scenario: str  # a built-in name or an absolute path
+    agents: int
+    steps: int
+    out: Path
+    run_id: str
+    clock: str = "lockstep"
+    speed: float = 1.0
+    connect: str | None = None  # a router's endpoint; None starts one
+    start_timeout: float = 60.0
+    progress: bool = False
+    drop_rate: float = 0.0  # fault injection: passed to every agent (realtime only)
+    drop_seed: int = 0
+    secure: bool = False  # TLS, passwords and the router's ACL (docs/security.md)
+    secure_dir: Path | None = None  # their material; None makes a fresh one in the run folder
+    measure_cpu: bool = (
+        False  # account each process's CPU per tick (tools/procs/cpu.py; the benchmark)
+    )
+    overwrite: bool = False  # the logger may replace an existing ``out``
+
+
+@dataclass(frozen=True)
+class RunResult:
+    summary: dict[str, Any]  # the world's summary (metrics and timing)
+    startup_s: float  # from launch until every agent's token was up
+    wall_s: float
+    agent_peak_rss_mb: list[float]  # one per agent process that reported it
+    lost: tuple[str, ...] = ()  # agents that died during the run, e.g. "agent 3 (exit code -9)"
+    agent_stats: tuple[str, ...] = ()  # each agent's stats line (agent/process.py, stats())
+    processes: int = 0  # OS processes started for the run (agents' fork server included)
+    cpu_us_per_tick: dict[str, float] = field(default_factory=dict)  # with plan.measure_cpu
+
+
+def launch(plan: RunPlan) -> RunResult:
+    """Run ``plan`` to its end; raises tools.swarm.ChildFailed if a process fails."""
+    started = time.monotonic()
+    with Swarm() as swarm:
+        if plan.secure and plan.secure_dir is None:  # removed with the run folder at the end
+            made = make_material(swarm.log_dir / "secure", run=plan.run_id, agents=plan.agents)
+            plan = replace(plan, secure_dir=made.root)
+        secure = ["--secure", str(plan.secure_dir)] if plan.secure_dir else []
+        scheme = "tls" if plan.secure_dir else "tcp"
+        endpoint = plan.connect or f"{scheme}/127.0.0.1:{free_port()}"
+        if plan.connect is None:
+            router = swarm.spawn(
+                "router", "router", ["router", "--listen", endpoint, *secure], ready_pipe=True
+            )
+            swarm.wait_ready(router, plan.start_timeout)
+        common = ["--run", plan.run_id, "--connect", endpoint, *secure]
+        logger = swarm.spawn(
+            "logger",
+            "logger",
+            ["logger", "--out", str(plan.out), *(["--force"] if plan.overwrite else []), *common],
+            ready_pipe=True,
+        )
+        swarm.spawn(
+            "world",
+            "world",
+            ["world", plan.scenario, *common, "--expect", "logger", "--expect", "monitor",
+             "--clock", plan.clock, "--speed", str(plan.speed),
+             "--start-timeout", str(plan.start_timeout)],
+        )  # fmt: skip
+        drops = ["--drop-rate", str(plan.drop_rate), "--drop-seed", str(plan.drop_seed)]
+        for i in range(1, plan.agents + 1):
+            args = ["agent", "--id", str(i), *common, *(drops if plan.drop_rate else [])]
+            swarm.spawn(f"agent {i}", "agent", args)
+        swarm.wait_ready(logger, plan.start_timeout)
+        lost: list[str] = []
+        window = None
+        if plan.measure_cpu:
+            window = CpuWindow(lambda: swarm_processes(swarm, monitor=os.getpid()))
+        summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost, window)
+        swarm.expect_exit({"world", "agent"}, timeout=10.0)
+        swarm.expect_exit({"logger"}, timeout=10.0)
+        rss = [
+            int(m.group(1)) / 1024
+            for c in swarm.children
+            if c.role == "agent" and (m := _PEAK_RSS.search(c.tail(3)))
+        ]
+        stats = tuple(
+            m.group(0)
+            for c in swarm.children
+            if c.role == "agent" and (m := _STATS.search(c.tail(4)))
+        )
+        wall = time.monotonic() - started
+        processes = len(swarm.children)
+        cpu = window.figures if window is not None else {}
+        return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu)
+
+
+def _monitor(
+    swarm: Swarm,
+    keys: Keys,
+    endpoint: str,
+    plan: RunPlan,
+    began: float,
+    lost: list[str],
+    window: CpuWindow | None = None,
+) -> tuple[dict[str, Any], float]:
+    """Follow the run from a client session until the world's summary arrives; also returns
+    the seconds from ``began`` until every agent's token was up.
+
+    An agent that dies does not end the run: the world owns membership (it holds the agent
+    still, logs it, and ends the run itself if it was the leader); the agent is noted in
+    ``lost`` and on stderr. Any other child that exits early fails the run, unless the world's
+    summary is already on its way (the world exits right after publishing it). A CPU
+    ``window`` is opened at the first tick record and closed at the last one."""
+    inbox = Inbox()
+    records = 0
+    agents_up: set[str] = set()
+    startup = float("nan")
+    conf = client_config((endpoint,), None, False, plan.secure_dir, MONITOR)
+    with open_session(conf, "shoal run") as session:
+        held = [
+            subscribe(session, keys.tick, inbox),
+            subscribe(session, keys.summary, inbox),
+            watch_presence(session, keys.alive_agents, inbox),
+        ]
+        token = session.liveliness().declare_token(keys.alive_process("monitor"))
+        show = plan.progress and sys.stderr.isatty()
+        with progress_bar(plan.steps, "simulated time", show=show) as bar:
+            checked = 0.0
+            while True:
+                if time.monotonic() - checked >= 0.2:  # not once per tick: 0.2 s is soon enough
+                    _note_lost_agents(swarm, lost)
+                    try:
+                        swarm.check()
+                    except ChildFailed:
+                        late = _late_summary(inbox, keys, within=2.0)
+                        if late is None:
+                            raise
+                        summary = late
+                        break
+                    checked = time.monotonic()
+                arrival = inbox.get(timeout=0.2)
+                if arrival is None:
+                    continue
+                if arrival.kind == "up":
+                    agents_up.add(arrival.key)
+                    if len(agents_up) == plan.agents:
+                        startup = round(time.monotonic() - began, 3)
+                    continue
+                if arrival.kind != "data":
+                    continue
+                try:
+                    if arrival.key == keys.summary:
+                        summary = codec.decode_document("summary", arrival.payload)
+                        break
+                    records += 1
+                    if window is not None and records == 1:
+                        window.open()
+                    elif window is not None and records == plan.steps:
+                        window.close(plan.steps - 1)
+                    if show:  # a hidden bar needs no tick number: skip decoding every record
+                        tick = codec.decode_tick(arrival.payload).tick
+                        bar.update(tick + 1 - bar.pos)
+                except DecodeError:
+                    continue  # a stranger's garbage on our keys does not stop the run
+        del held, token
+    return summary, startup
+
+
+def _note_lost_agents(swarm: Swarm, lost: list[str]) -> None:
+    """Mark agents that exited with an error as expected gone, and say so once each."""
+    for c in swarm.children:
+        code = c.popen.poll()
+        if c.role == "agent" and not c.done and code is not None and code != 0:
+            c.done = True
+            lost.append(f"{c.name} (exit code {code})")
+            warn(f"shoal run: {c.name} exited with code {code}; the world goes on without it")
+
+
+def _late_summary(inbox: Inbox, keys: Keys, within: float) -> dict[str, Any] | None:
+    """The world's summary if it is in ``inbox`` or arrives within ``within`` seconds."""
+    deadline = time.monotonic() + within
+    while (arrival := inbox.get(timeout=max(deadline - time.monotonic(), 0.0))) is not None:
+        if arrival.kind == "data" and arrival.key == keys.summary:
+            try:
+                return codec.decode_document("summary", arrival.payload)
+            except DecodeError:
+                continue
+    return None

@@ -1,0 +1,49 @@
+"""Opening a process's Zenoh session: its configuration and the session, with errors a person
+can act on (:class:`SessionError`; the ``shoal`` command shows its message, not a traceback)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import zenoh
+
+from shoal.bus.errors import WireError
+from shoal.bus.secure import Identity, Material
+from shoal.bus.zconfig import zenoh_config
+from shoal.tools.errors import SessionError
+
+
+def client_config(
+    connect: tuple[str, ...],
+    zenoh_config_file: Path | None,
+    multicast: bool,
+    secure: Path | None = None,
+    name: str = "",
+) -> zenoh.Config:
+    """A client session's configuration, with errors a person can act on; with ``secure``, the
+    process logs in as identity ``name`` (world, logger, monitor, agent-<i>)."""
+    identity = Identity(Material(secure), name) if secure is not None else None
+    try:
+        return zenoh_config(
+            mode="client",
+            connect=connect,
+            config_file=zenoh_config_file,
+            multicast=multicast,
+            secure=identity,
+        )
+    except WireError as exc:
+        raise SessionError(str(exc)) from None
+
+
+_RUST_SOURCE = re.compile(r"\s+at \S+\.rs:\d+\.?")  # "… Timeout! at /root/.cargo/…/x.rs:388."
+
+
+def open_session(conf: zenoh.Config, what: str) -> zenoh.Session:
+    try:
+        return zenoh.open(conf)
+    except Exception as exc:  # zenoh.ZError: e.g. no router at the endpoint
+        why = _RUST_SOURCE.sub("", str(exc)).rstrip(".")
+        raise SessionError(
+            f"{what}: cannot open a Zenoh session: {why} (is a router running there?)"
+        ) from None
