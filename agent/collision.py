@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.agent.formation import FloatArray
+from shoal.bus.geometry import FloatArray
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
 

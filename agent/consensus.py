@@ -13,7 +13,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from shoal.agent.formation import FloatArray
+from shoal.bus.geometry import FloatArray
 
 # A passage is only entered if the heading crosses the gap at least this steeply:
 # cos of the angle between the heading and the line through the two centres.

@@ -23,15 +23,9 @@ import numpy as np
 from shoal.agent.collision import Evasion, collision_course, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
-from shoal.agent.formation import (
-    FloatArray,
-    consensus_error,
-    evasive_error,
-    shaped,
-    velocity,
-)
+from shoal.agent.formation import consensus_error, evasive_error, shaped, velocity
 from shoal.agent.leader import detour, lead
-from shoal.bus.geometry import segment_distance
+from shoal.bus.geometry import FloatArray, segment_distance
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
 from shoal.bus.types import AgentConfig, AgentState, Command, Sensing, Waypoints

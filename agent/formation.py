@@ -11,7 +11,6 @@ import numpy as np
 from shoal.bus.geometry import FloatArray, rotation, shaped
 
 __all__ = [
-    "FloatArray",
     "consensus_error",
     "evasive_error",
     "rotation",

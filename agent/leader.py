@@ -19,8 +19,7 @@ import math
 
 import numpy as np
 
-from shoal.agent.formation import FloatArray
-from shoal.bus.geometry import segment_distance
+from shoal.bus.geometry import FloatArray, segment_distance
 
 _STEP = math.radians(30.0)  # the polygon's largest turn per vertex
 _REACHED = 1e-9  # m: a waypoint this close counts as visited

@@ -23,11 +23,11 @@ import warnings
 
 import numpy as np
 
-from shoal.bus.geometry import segment_distance
+from shoal.bus.geometry import FloatArray, segment_distance
 from shoal.bus.path import path_positions, peak_speed
 from shoal.bus.types import Waypoints
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
-from shoal.world.graph import FloatArray, communication_graph, hop_distances, reached_from_leader
+from shoal.world.graph import communication_graph, hop_distances, reached_from_leader
 from shoal.world.scenario import Scenario
 
 

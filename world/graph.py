@@ -16,7 +16,6 @@ from numpy.typing import NDArray
 from shoal.bus.geometry import FloatArray
 
 __all__ = [
-    "FloatArray",
     "adjacency",
     "communication_graph",
     "diameter",

@@ -12,9 +12,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from shoal.bus.geometry import FloatArray
 from shoal.bus.safety import safe_velocity
 from shoal.bus.types import ControlParams, Sensing
-from shoal.world.graph import FloatArray
 
 
 def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> FloatArray:

@@ -12,8 +12,9 @@ from functools import cached_property
 
 import numpy as np
 
+from shoal.bus.geometry import FloatArray
 from shoal.bus.types import AgentConfig, ControlParams, PathSpec, Reshape, Vector
-from shoal.world.graph import FloatArray, adjacency, communication_graph, diameter
+from shoal.world.graph import adjacency, communication_graph, diameter
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from shoal.world.graph import FloatArray, follower_matrix
+from shoal.bus.geometry import FloatArray
+from shoal.world.graph import follower_matrix
 
 
 def formation_error(positions: FloatArray, offsets: FloatArray) -> FloatArray:
