@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -73,4 +74,15 @@ def test_scenarios_lists_every_builtin_and_prints_one() -> None:
     for name in ("default", "sinusoid", "passage", "obstacles"):
         assert name in listed.output
     shown = CliRunner().invoke(main, ["scenarios", "passage"])
-    assert shown.output == load_scenario("passage").source
+    assert shown.exit_code == 0
+
+
+def test_a_printed_builtin_saved_as_a_file_runs_under_the_files_name(tmp_path: Path) -> None:
+    """`shoal scenarios passage > mine.yaml` used to keep `name: passage`, so mine's logs and
+    figures took the built-in's names and replaced them."""
+    shown = CliRunner().invoke(main, ["scenarios", "passage"])
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(shown.output, encoding="utf-8")
+    copy, builtin = load_scenario(mine), load_scenario("passage")
+    assert (copy.name, builtin.name) == ("mine", "passage")
+    assert dataclasses.replace(copy, name="passage", source=builtin.source) == builtin
