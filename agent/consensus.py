@@ -25,6 +25,11 @@ _MAX_ALONG_COS = np.cos(np.deg2rad(30.0))
 BID_SPEED = 0.1
 
 
+def epoch_of(tick: int, rounds: int) -> int:
+    """The epoch ``tick`` belongs to: epochs are ``rounds`` ticks long, the first starts at 0."""
+    return tick // max(rounds, 1)
+
+
 def epoch_start(tick: int, rounds: int) -> bool:
     """True on the first tick of an epoch of ``rounds`` ticks."""
     return tick % max(rounds, 1) == 0

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.agent.collision import Evasion, collision_course, ray_distance
-from shoal.agent.consensus import consensus_round, epoch_start, passage_bid
+from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, shaped, velocity
 from shoal.agent.leader import detour, lead
@@ -227,7 +227,12 @@ class Controller:
             if result.active:
                 out, filtered = result.velocity, True
                 v = np.asarray(out, dtype=np.float64)
-        bids = [neighbours[j].bid for j in cfg.talks_to if j in neighbours]
+        epoch = epoch_of(sensing.tick, p.rounds)
+        bids = [
+            neighbours[j].bid
+            for j in cfg.talks_to
+            if j in neighbours and epoch_of(neighbours[j].tick, p.rounds) == epoch
+        ]  # realtime: a state from the last epoch carries a value Algorithm 1 has reset
         busy = 0
         if p.filtered and (evasion is not None or filtered or lag > self.busy_error):
             busy = memory.busy + 1

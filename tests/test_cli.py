@@ -9,6 +9,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from shoal.tools.cli import main
+from shoal.tools.commands.report import render_summary
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
 from shoal.world.trajectory import Trajectory
@@ -16,7 +17,7 @@ from shoal.world.trajectory import Trajectory
 KEYS = {
     "scenario", "agents", "steps", "dt", "collisions", "min_clearance",
     "min_interagent_distance", "convergence_time", "convergence_bound", "sigma",
-    "sigma_rounds", "omega_episodes",
+    "sigma_rounds", "sigma_disagreement", "omega_episodes",
 }  # fmt: skip
 
 
@@ -86,3 +87,16 @@ def test_a_printed_builtin_saved_as_a_file_runs_under_the_files_name(tmp_path: P
     copy, builtin = load_scenario(mine), load_scenario("passage")
     assert (copy.name, builtin.name) == ("mine", "passage")
     assert dataclasses.replace(copy, name="passage", source=builtin.source) == builtin
+
+
+def test_a_split_sigma_is_reported_not_hidden() -> None:
+    """A realtime passage ended with σ flipping between 1 and 4 while the summary said
+    'agreed σ 4.000': the ticks in which the agents applied different σ are now shown."""
+    base = {"scenario": "x", "agents": 5, "steps": 10, "dt": 0.01, "collisions": 0,
+            "min_clearance": None, "min_interagent_distance": 1.0, "convergence_time": 0.1,
+            "convergence_bound": 1.0, "tolerance": 0.2, "final_formation_error": 0.0,
+            "sigma": 4.0, "sigma_rounds": 2, "omega_episodes": 0}  # fmt: skip
+    agreed = render_summary({**base, "sigma_disagreement": 0})
+    split = render_summary({**base, "sigma_disagreement": 59})
+    assert "different σ" not in agreed
+    assert "4.000 (rounds 2); agents applied different σ in 59 ticks" in split

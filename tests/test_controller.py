@@ -13,7 +13,7 @@ from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, velocity
 from shoal.bus.types import AgentState, Sensing
 from shoal.world.loader import scenario_from_dict
-from shoal.world.scenario import Scenario
+from shoal.world.scenario import REALTIME_TICKS_PER_ROUND, Scenario
 
 
 def triangle(**extra: Any) -> Scenario:
@@ -193,6 +193,27 @@ def test_agreed_sigma_applies_from_the_next_epoch_for_everyone() -> None:
         bid = 3.0 if tick == 0 else 1.0  # agent 2 sees a passage only at tick 0
         memory, _ = c.act(memory, sensing((-2.0, -2.0), tick), {2: state(2, (-2.0, 2.0), bid=bid)})
     assert sigmas == [1.0, 3.0, 1.0, 1.0]
+
+
+def test_a_bid_from_the_last_epoch_is_not_taken_into_this_one() -> None:
+    """Realtime: an agent acts on the freshest state it has of a neighbour, which may be from
+    the last epoch and carry a value Algorithm 1 has since reset. Taken into the maximum, a
+    passage's old bid went round for good: σ flipped and the formation never expanded."""
+    c = Controller(triangle().agent_config(3))  # L_G = 1: every tick is an epoch
+    memory, _ = c.announce(c.start(), sensing((-2.0, -2.0), 1))
+    old = AgentState(2, 0, (-2.0, 2.0), False, 4.0, 1.0, 0.0)  # tick 0: the last epoch
+    after, _ = c.act(memory, sensing((-2.0, -2.0), 1), {2: old})
+    assert after.bid == 1.0
+    fresh = dataclasses.replace(old, tick=1)
+    after, _ = c.act(memory, sensing((-2.0, -2.0), 1), {2: fresh})
+    assert after.bid == 4.0
+
+
+def test_realtime_epochs_are_longer_and_lockstep_ones_are_l_g() -> None:
+    scenario = triangle()
+    assert scenario.agent_config(2).params.rounds == scenario.rounds == 1
+    realtime = scenario.agent_config(2, "realtime").params.rounds
+    assert realtime == REALTIME_TICKS_PER_ROUND * scenario.rounds == 4
 
 
 def test_reshape_schedule_sets_scale_and_rotation_from_its_tick() -> None:

@@ -32,6 +32,7 @@ def test_every_builtin_is_collision_free_and_converges_within_its_bound(name: st
     assert s.convergence_time <= s.convergence_bound
     assert s.final_formation_error <= s.tolerance
     assert s.assumption2_violations == 0
+    assert s.sigma_disagreement == 0  # Proposition 1: in lockstep all apply the same σ
 
 
 def test_obstacles_keeps_the_safety_margin_and_evades() -> None:

@@ -43,6 +43,7 @@ class Summary:
     stalls: int = 0  # times an agent was held by the filter for more than STALL_TIME
     longest_stall: float = 0.0  # s
     leader_shortfall: float = 0.0  # m: the leader's final distance from where its path ends
+    sigma_disagreement: int = 0  # ticks in which the agents applied different σ
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -139,8 +140,8 @@ def assumption2_violations(scenario: Scenario, omega: np.ndarray[Any, Any]) -> i
     return count
 
 
-def summarize(scenario: Scenario, traj: Trajectory) -> Summary:
-    """The figures reported after a run."""
+def summarize(scenario: Scenario, traj: Trajectory, *, clock: str = "lockstep") -> Summary:
+    """The figures reported after a run under ``clock`` (which sets Algorithm 1's epochs)."""
     errors = formation_errors(scenario, traj)
     worst = errors.max(axis=1)
     below = np.flatnonzero(worst <= scenario.tolerance)
@@ -186,7 +187,8 @@ def summarize(scenario: Scenario, traj: Trajectory) -> Summary:
         tolerance=scenario.tolerance,
         final_formation_error=float(worst[-1]),
         sigma=float(traj.sigma.max()),
-        sigma_rounds=sigma_rounds(traj.bid, scenario.rounds),
+        sigma_rounds=sigma_rounds(traj.bid, scenario.epoch_ticks(clock)),
+        sigma_disagreement=int(np.any(traj.sigma != traj.sigma[:, :1], axis=1).sum()),
         omega_episodes=onsets(traj.omega),
         assumption2_violations=assumption2_violations(scenario, traj.omega),
         safety=scenario.control.safety,

@@ -64,7 +64,7 @@ class World:
         self.latest: dict[int, tuple[AgentState, Command]] = {}  # each agent's newest command
         self.up: set[str] = set()
         configs = {
-            i: codec.encode_config(scenario.agent_config(i), clock=options.clock)
+            i: codec.encode_config(scenario.agent_config(i, options.clock), clock=options.clock)
             for i in self.alive
         }
 
@@ -174,7 +174,7 @@ class World:
             filtered=np.asarray(history["filtered"], dtype=bool).reshape(-1, s.n),
         )
         summary = {
-            **summarize(s, traj).as_dict(),
+            **summarize(s, traj, clock=self.options.clock).as_dict(),
             **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
             "dropped_messages": self.dropped,
             "actuator_corrections": corrected,

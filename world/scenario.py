@@ -34,6 +34,12 @@ class AgentSpec:
     offset: Vector
 
 
+# Realtime: ticks one round of Algorithm 1 may take. An agent acts on the freshest state it has
+# of each neighbour, often a tick or more old (more on a loaded machine), so an epoch of L_G
+# ticks ended before the maximum had spread and agents applied different σ (issue 16, item 1).
+REALTIME_TICKS_PER_ROUND = 4
+
+
 @dataclass(frozen=True, slots=True)
 class Control:
     """The gains and thresholds of the scenario (see :class:`shoal.bus.types.ControlParams`)."""
@@ -145,7 +151,13 @@ class Scenario:
         c = self.control
         return self.largest_step / self.dt if c.speed_limit is None else c.speed_limit
 
-    def params(self) -> ControlParams:
+    def epoch_ticks(self, clock: str = "lockstep") -> int:
+        """Ticks per epoch of Algorithm 1 under ``clock``: L_G in lockstep; in realtime
+        :data:`REALTIME_TICKS_PER_ROUND` times that, because an agent acts on neighbours'
+        states that are often a tick or more old, so a round can take that many ticks."""
+        return self.rounds * (REALTIME_TICKS_PER_ROUND if clock == "realtime" else 1)
+
+    def params(self, clock: str = "lockstep") -> ControlParams:
         c = self.control
         return ControlParams(
             alpha=c.alpha,
@@ -156,15 +168,16 @@ class Scenario:
             safety_margin=c.safety_margin,
             heading_tau=c.heading_tau,
             sigma_max=c.sigma_max,
-            rounds=self.rounds,
+            rounds=self.epoch_ticks(clock),
             boundary_layer=c.boundary_layer,
             safety=c.safety,
             speed_limit=self.speed_limit,
             separation=self.separation,
         )
 
-    def agent_config(self, agent_id: int) -> AgentConfig:
-        """The configuration agent ``agent_id`` runs with (what the world serves it)."""
+    def agent_config(self, agent_id: int, clock: str = "lockstep") -> AgentConfig:
+        """The configuration agent ``agent_id`` runs with under ``clock`` (what the world
+        serves it)."""
         a = self.adjacency
         comm = communication_graph(a)
         i = agent_id - 1
@@ -174,7 +187,7 @@ class Scenario:
             agent_id=agent_id,
             dim=self.dim,
             dt=self.dt,
-            params=self.params(),
+            params=self.params(clock),
             senses=senses if i > 0 else (),
             talks_to=talks_to,
             offset=self.agents[i].offset,

@@ -38,7 +38,7 @@ def render_summary(summary: dict[str, Any]) -> str:
             f"{', within bound' if within else ''})",
         ),
         ("final formation error", _fmt(summary["final_formation_error"], " m")),
-        ("agreed σ", f"{_fmt(summary['sigma'], '', 3)} (rounds {_fmt(summary['sigma_rounds'])})"),
+        ("agreed σ", _sigma(summary)),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
     if summary.get("safety", "filter") == "filter":
@@ -73,3 +73,11 @@ def render_summary(summary: dict[str, Any]) -> str:
 def json_safe(summary: dict[str, Any]) -> dict[str, Any]:
     """inf is not JSON: an unbounded figure becomes null."""
     return {k: (None if isinstance(v, float) and math.isinf(v) else v) for k, v in summary.items()}
+
+
+def _sigma(summary: dict[str, Any]) -> str:
+    """The largest σ applied and the rounds it took; and, if the agents did not all apply the
+    same σ at every tick (Proposition 1 is for lockstep), in how many ticks they differed."""
+    text = f"{_fmt(summary['sigma'], '', 3)} (rounds {_fmt(summary['sigma_rounds'])})"
+    split = summary.get("sigma_disagreement") or 0
+    return text if not split else f"{text}; agents applied different σ in {split} ticks"
