@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 from click.testing import CliRunner
 
 from shoal.tools.cli import main
 from shoal.tools.commands.report import render_summary
+from shoal.tools.procs.launch import free_port
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
 from shoal.world.trajectory import Trajectory
@@ -100,3 +103,19 @@ def test_a_split_sigma_is_reported_not_hidden() -> None:
     split = render_summary({**base, "sigma_disagreement": 59})
     assert "different σ" not in agreed
     assert "4.000 (rounds 2); agents applied different σ in 59 ticks" in split
+
+
+def test_run_on_an_unreachable_router_says_so_and_starts_nothing(tmp_path: Path) -> None:
+    """`shoal run --connect X` with no router at X said "logger not ready" after half a
+    minute; it now names the router, before any process is started or any file written."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    out = tmp_path / "never.mcap"
+    result = subprocess.run(
+        [sys.executable, "-m", "shoal.tools", "run", "default", "--connect", endpoint,
+         "--out", str(out)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 1
+    assert f"the router at {endpoint}: cannot open a Zenoh session" in result.stderr
+    assert "is a router running there?" in result.stderr and "logger" not in result.stderr
+    assert not out.exists()

@@ -83,6 +83,8 @@ def launch(plan: RunPlan) -> RunResult:
         secure = ["--secure", str(plan.secure_dir)] if plan.secure_dir else []
         scheme = "tls" if plan.secure_dir else "tcp"
         endpoint = plan.connect or f"{scheme}/127.0.0.1:{free_port()}"
+        if plan.connect is not None:
+            _probe(endpoint, plan)
         if plan.connect is None:
             router = swarm.spawn(
                 "router", "router", ["router", "--listen", endpoint, *secure], ready_pipe=True
@@ -128,6 +130,20 @@ def launch(plan: RunPlan) -> RunResult:
         processes = len(swarm.children)
         cpu = window.figures if window is not None else {}
         return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu)
+
+
+# ms: how long ``shoal run --connect`` tries to reach the router before it starts anything. The
+# processes themselves keep trying for 30 s (bus/zconfig.py), which made an unreachable router
+# look like "logger not ready" after half a minute (issue 16, item 7).
+PROBE_MS = 5_000
+
+
+def _probe(endpoint: str, plan: RunPlan) -> None:
+    """Raise SessionError, naming ``endpoint``, if no router answers there within PROBE_MS."""
+    conf = client_config((endpoint,), None, False, plan.secure_dir, MONITOR)
+    conf.insert_json5("connect/timeout_ms", str(PROBE_MS))
+    with open_session(conf, f"the router at {endpoint}"):
+        pass
 
 
 def _monitor(
