@@ -79,7 +79,9 @@ def test_inspect_a_finished_run(tmp_path: Path) -> None:
     info = json.loads(shown.output)
     assert info["finished"] is True and info["stopped"] is None
     assert info["scenario"] == "sinusoid" and info["attachments"] == ["scenario.yaml"]
-    assert info["summary"]["collisions"] == "0"
+    summary = info["summary"]  # the world's document: numbers are numbers, not strings
+    assert summary["collisions"] == 0 and summary["steps"] == 100
+    assert isinstance(summary["min_interagent_distance"], float)
     ticks = [n for topic, n in info["channels"].items() if topic.endswith("/world/tick")]
     assert ticks == [100]
     text = CliRunner().invoke(main, ["inspect", str(out)])

@@ -8,6 +8,7 @@ what is lost (docs/wire.md, "The log").
 
 from __future__ import annotations
 
+import contextlib
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -18,6 +19,9 @@ from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, McapRecord, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
+
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
 
 MAGIC = b"\x89MCAP0\r\n"  # what every MCAP file starts with (and a finished one ends with)
 
@@ -105,8 +109,13 @@ def inspect_file(path: Path) -> dict[str, Any]:
     LogError if it is not an MCAP file at all."""
     check_log(path, finished=False)
     scan = Scan()
-    for _ in records(path, scan):
-        pass
+    summary: dict[str, Any] | None = None
+    for record in records(path, scan):
+        if summary is None and isinstance(record, Message):
+            topic = scan.channels[record.channel_id].topic
+            if topic.endswith("/world/summary"):
+                with contextlib.suppress(DecodeError):  # someone else's garbage on the key
+                    summary = codec.decode_document("summary", record.data)
     duration = (
         (scan.last_ns - scan.first_ns) / 1e9
         if scan.first_ns is not None and scan.last_ns is not None
@@ -123,7 +132,9 @@ def inspect_file(path: Path) -> dict[str, Any]:
         "scenario": scenario.get("name"),
         "run": scenario.get("run"),
         "attachments": scan.attachments,
-        "summary": scan.metadata.get("summary"),
+        # the world's document, with its numbers as numbers (the MCAP metadata record, the
+        # other copy, holds strings only)
+        "summary": summary if summary is not None else scan.metadata.get("summary"),
     }
 
 
