@@ -46,7 +46,7 @@ def test_killed_logger_is_recovered_up_to_its_last_complete_chunk(
     assert info["finished"] is False and info["messages"] > 0
 
     fixed = tmp_path / "fixed.mcap"
-    result = CliRunner().invoke(main, ["recover", str(broken), "-o", str(fixed)])
+    result = CliRunner().invoke(main, ["recover", str(broken), "-o", str(fixed), "--json"])
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
     assert report["was_finished"] is False and report["messages"] == info["messages"]
@@ -54,6 +54,12 @@ def test_killed_logger_is_recovered_up_to_its_last_complete_chunk(
         summary = make_reader(f).get_summary()
     assert summary is not None and summary.statistics is not None
     assert summary.statistics.message_count == info["messages"]
+    again = CliRunner().invoke(main, ["recover", str(broken), "-o", str(fixed)])
+    assert again.exit_code == 1 and "exists; pass --force" in again.output  # never silently
+    told = CliRunner().invoke(main, ["recover", str(broken), "-o", str(fixed), "--force"])
+    assert told.exit_code == 0, told.output  # for a person: what was recovered, and what next
+    assert f"{info['messages']} messages on " in told.output and "not finished" in told.output
+    assert f"shoal inspect {fixed}" in told.output
 
     # What survived is the run's beginning, bit for bit: at least the first 300 ticks
     # (the writer flushes every 0.5 s; the kill came after tick 600).
