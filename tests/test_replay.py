@@ -15,6 +15,7 @@ from shoal.bus.links import subscribe
 from shoal.bus.runtime import Inbox
 from shoal.tools.cli import main
 from shoal.tools.log.replay import Selection, messages
+from shoal.tools.procs.launch import free_port
 from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration
@@ -47,6 +48,15 @@ def test_replay_delivers_the_same_bytes_in_the_same_order(router: str, tmp_path:
             got.append((arrival.key, arrival.payload))
         del held
     assert got == expected
+
+    nobody = f"tcp/127.0.0.1:{free_port()}"  # no router there: said at once, in plain words
+    proc = subprocess.run(
+        [*PYTHON, "replay", str(log), "--connect", nobody], capture_output=True, text=True,
+        timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 1
+    assert "replay: cannot open a Zenoh session" in proc.stderr and nobody in proc.stderr
+    assert "is a router running there?" in proc.stderr and ".rs:" not in proc.stderr
 
 
 def test_selection_filters_topics() -> None:

@@ -11,7 +11,7 @@ from shoal.bus.runtime import exit_on_signals
 from shoal.tools.log.replay import Selection
 from shoal.tools.log.replay import replay as play
 from shoal.tools.log.salvage import LogError, check_log
-from shoal.tools.procs.session import client_config, open_session
+from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.progress import progress_bar
 
 
@@ -46,7 +46,10 @@ def replay(
     selection = Selection(
         tuple(t for t in topics.split(",") if t), regex or None, exclude_regex or None
     )
-    with open_session(client_config(connect, None, False), "replay") as session:
+    conf = client_config(
+        connect, None, False, connect_ms=PROMPT_CONNECT_MS
+    )  # the router should be up
+    with open_session(conf, "replay") as session:
         while True:
             label = f"replaying {file.name}"
             with progress_bar(1000, label) as bar:

@@ -24,7 +24,7 @@ from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.runtime import Inbox, warn
 from shoal.tools.deploy.certs import make_material
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
-from shoal.tools.procs.session import client_config, open_session
+from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
 from shoal.tools.progress import progress_bar
 
@@ -132,16 +132,13 @@ def launch(plan: RunPlan) -> RunResult:
         return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu)
 
 
-# ms: how long ``shoal run --connect`` tries to reach the router before it starts anything. The
-# processes themselves keep trying for 30 s (bus/zconfig.py), which made an unreachable router
-# look like "logger not ready" after half a minute (issue 16, item 7).
-PROBE_MS = 5_000
-
-
 def _probe(endpoint: str, plan: RunPlan) -> None:
-    """Raise SessionError, naming ``endpoint``, if no router answers there within PROBE_MS."""
-    conf = client_config((endpoint,), None, False, plan.secure_dir, MONITOR)
-    conf.insert_json5("connect/timeout_ms", str(PROBE_MS))
+    """Raise SessionError, naming ``endpoint``, if no router answers there soon: the
+    processes themselves keep trying for 30 s, which made an unreachable router look like
+    "logger not ready" after half a minute (issue 16, item 7)."""
+    conf = client_config(
+        (endpoint,), None, False, plan.secure_dir, MONITOR, connect_ms=PROMPT_CONNECT_MS
+    )
     with open_session(conf, f"the router at {endpoint}"):
         pass
 

@@ -13,6 +13,10 @@ from shoal.bus.secure import Identity, Material
 from shoal.bus.zconfig import zenoh_config
 from shoal.tools.errors import SessionError
 
+# ms: how long a command a person runs against a router that should already be up (replay,
+# run --connect) tries to reach it, rather than the 30 s a starting swarm's processes need.
+PROMPT_CONNECT_MS = 5_000
+
 
 def client_config(
     connect: tuple[str, ...],
@@ -20,12 +24,16 @@ def client_config(
     multicast: bool,
     secure: Path | None = None,
     name: str = "",
+    connect_ms: int | None = None,
 ) -> zenoh.Config:
     """A client session's configuration, with errors a person can act on; with ``secure``, the
-    process logs in as identity ``name`` (world, logger, monitor, agent-<i>)."""
+    process logs in as identity ``name`` (world, logger, monitor, agent-<i>). ``connect_ms``:
+    how long to keep trying to reach the router (default: bus/zconfig.py's 30 s, which a
+    swarm starting on a loaded machine needs; a command a person runs against a router that
+    should be up answers sooner)."""
     identity = Identity(Material(secure), name) if secure is not None else None
     try:
-        return zenoh_config(
+        conf = zenoh_config(
             mode="client",
             connect=connect,
             config_file=zenoh_config_file,
@@ -34,6 +42,9 @@ def client_config(
         )
     except WireError as exc:
         raise SessionError(str(exc)) from None
+    if connect_ms is not None:
+        conf.insert_json5("connect/timeout_ms", str(connect_ms))
+    return conf
 
 
 _RUST_SOURCE = re.compile(r"\s+at \S+\.rs:\d+\.?")  # "… Timeout! at /root/.cargo/…/x.rs:388."
