@@ -13,9 +13,10 @@ import dataclasses
 import functools
 import itertools
 import math
+import multiprocessing
+import signal
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -186,12 +187,29 @@ def run_campaign(
             done(results[-1])
         return results
     by_index: dict[int, Outcome] = {}
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(run_task, t): k for k, t in enumerate(todo)}
-        for future in as_completed(futures):
-            by_index[futures[future]] = outcome = future.result()
+    # multiprocessing's Pool, not concurrent.futures: on Ctrl-C it can be terminated at once,
+    # where an executor's shutdown still ran every queued field (6 minutes for 200 fields).
+    pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupts)
+    try:
+        for k, outcome in pool.imap_unordered(_run_indexed, enumerate(todo)):
+            by_index[k] = outcome
             done(outcome)
+    except BaseException:
+        pool.terminate()  # Ctrl-C, or a bug: the workers go now, not after the queue
+        raise
+    finally:
+        pool.close()
+        pool.join()
     return [by_index[k] for k in range(len(todo))]
+
+
+def _run_indexed(item: tuple[int, Task]) -> tuple[int, Outcome]:
+    return item[0], run_task(item[1])
+
+
+def _ignore_interrupts() -> None:
+    """In a worker: Ctrl-C is the parent's to handle (it terminates the pool)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 # -- the report ---------------------------------------------------------------------------------
