@@ -24,6 +24,11 @@ BEFORE_THE_FILTER = {
 }
 
 
+# default's second obstacle lay 8.3 m past the end of the route, never sensed; it has moved
+# beside the second leg since. The historic digest is of default as it was then.
+AS_IT_WAS = {"default": ("centre: [15.6, 12], radius: 1.0", "centre: [15.6, 27], radius: 1.0")}
+
+
 def _digest(positions: object) -> str:
     return hashlib.sha256(positions.tobytes()).hexdigest()[:32]  # type: ignore[attr-defined]
 
@@ -31,6 +36,10 @@ def _digest(positions: object) -> str:
 @pytest.mark.parametrize("name", sorted(BEFORE_THE_FILTER))
 def test_paper_mode_reproduces_the_trajectories_from_before_the_filter(name: str) -> None:
     scn = load_scenario(name)
+    if name in AS_IT_WAS:
+        now, then = AS_IT_WAS[name]
+        assert now in scn.source
+        scn = parse_scenario(scn.source.replace(now, then))
     paper = dataclasses.replace(scn, control=dataclasses.replace(scn.control, safety="paper"))
     traj = simulate(paper)
     assert _digest(traj.positions) == BEFORE_THE_FILTER[name]
