@@ -269,7 +269,7 @@ def test_a_run_that_does_not_finish_says_where_its_log_is(
             (logger,) = [
                 p
                 for p in descendants(proc.pid)
-                if b"\0tools\0logger\0" in Path(f"/proc/{p}/cmdline").read_bytes()
+                if b"\0shoal.tools\0logger\0" in Path(f"/proc/{p}/cmdline").read_bytes()
             ]
             os.kill(logger, signal.SIGKILL)
         _, stderr = proc.communicate(timeout=60)
