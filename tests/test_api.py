@@ -31,9 +31,11 @@ def test_the_example_in_docs_api_md_runs(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S)
-    assert len(blocks) == 1
+    assert len(blocks) == 1 and blocks[0].count('"default"') == 2
+    short = tmp_path / "short.yaml"  # default up to its corner (20 s), not its 40 s
+    short.write_text(shoal.load("default").source.replace("duration: 40.0", "duration: 20.0"))
     monkeypatch.chdir(tmp_path)
-    exec(compile(blocks[0], str(DOC), "exec"), {})
+    exec(compile(blocks[0].replace('"default"', repr(str(short))), str(DOC), "exec"), {})
     out = capsys.readouterr().out
     assert "0 collisions" in out and "5 agent processes" in out
-    assert (tmp_path / "runs" / "api-obstacles.mcap").stat().st_size > 0
+    assert (tmp_path / "runs" / "api-default.mcap").stat().st_size > 0

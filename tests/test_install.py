@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from shoal.world.loader import load_scenario
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -66,8 +68,10 @@ def test_shoal_run_works_from_a_folder_with_a_users_own_packages(
     installed: Path, crowded: Path
 ) -> None:
     shoal = installed / "bin" / "shoal"
+    short = load_scenario("sinusoid").source.replace("duration: 30.0", "duration: 1.0")
+    (crowded / "short.yaml").write_text(short, encoding="utf-8")  # the packages matter, not length
     out = subprocess.run(
-        [str(shoal), "run", "default", "--out", "runs/d.mcap", "--no-foxglove", "--json"],
+        [str(shoal), "run", "short.yaml", "--out", "runs/d.mcap", "--no-foxglove", "--json"],
         cwd=crowded, env=_env(installed), capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert out.returncode == 0, out.stderr
