@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.bus.geometry import FloatArray, dot, norm
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
 
@@ -23,15 +23,15 @@ def ray_distance(origin: FloatArray, heading: FloatArray, centre: FloatArray) ->
     Remark 4: inf (the paper's D̄) unless the obstacle is strictly ahead (an acute angle
     between the ray and the line to the obstacle), and inf for an agent that does not move.
     """
-    speed = float(np.linalg.norm(heading))
+    speed = norm(heading)
     if speed < _STILL:
         return math.inf
     unit = heading / speed
     to_centre = centre - origin
-    along = float(to_centre @ unit)
+    along = dot(to_centre, unit)
     if along <= 0.0:
         return math.inf
-    return float(np.linalg.norm(to_centre - along * unit))
+    return norm(to_centre - along * unit)
 
 
 def _left_of(unit: FloatArray) -> FloatArray:
@@ -40,8 +40,8 @@ def _left_of(unit: FloatArray) -> FloatArray:
         return np.array([-unit[1], unit[0]])
     axis = np.zeros(unit.shape[0])
     axis[int(np.argmin(np.abs(unit)))] = 1.0
-    side = np.cross(axis, unit) if unit.shape[0] == 3 else axis - (axis @ unit) * unit
-    return np.asarray(side / np.linalg.norm(side), dtype=np.float64)
+    side = np.cross(axis, unit) if unit.shape[0] == 3 else axis - dot(axis, unit) * unit
+    return np.asarray(side / norm(side), dtype=np.float64)
 
 
 def evasive_offset(
@@ -60,11 +60,11 @@ def evasive_offset(
     so ε covers the chattering band and ρ is the clearance kept. Zero if the ray already passes
     that far out. A ray through the centre (d_ij = 0) is pushed to the left of the heading.
     """
-    unit = heading / float(np.linalg.norm(heading))
+    unit = heading / norm(heading)
     to_centre = centre - origin
-    foot = origin + float(to_centre @ unit) * unit
+    foot = origin + dot(to_centre, unit) * unit
     away = foot - centre
-    d = float(np.linalg.norm(away))
+    d = norm(away)
     direction = away / d if d > 1e-12 else _left_of(unit)
     magnitude = max(0.0, radius + safety_margin + epsilon - d)
     return np.asarray(magnitude * direction, dtype=np.float64)
@@ -95,7 +95,7 @@ def _ratchet(
     short = held.radius + clearance - ray_distance(position, heading, held.centre)
     if not short > 0:
         return held
-    size = float(np.linalg.norm(held.offset))
+    size = norm(held.offset)
     if size == 0.0:
         return held
     most = cap * (held.radius + clearance)
@@ -118,7 +118,7 @@ def _triggers(
     """(distance to centre, index) of every obstacle that fires the first clause of (11)."""
     hits = []
     for k in range(centres.shape[0]):
-        dist = float(np.linalg.norm(position - centres[k]))
+        dist = norm(position - centres[k])
         if dist > trigger_radius:
             continue
         if ray_distance(position, heading, centres[k]) <= radii[k] + safety_margin + epsilon:
@@ -161,9 +161,9 @@ def collision_course(
         epsilon=epsilon,
     )
     if held is not None:
-        dist = float(np.linalg.norm(position - held.centre))
-        speed = float(np.linalg.norm(heading))
-        along = float((position - held.centre) @ heading) / speed if speed > _STILL else 0.0
+        dist = norm(position - held.centre)
+        speed = norm(heading)
+        along = dot(position - held.centre, heading) / speed if speed > _STILL else 0.0
         if dist <= sensing_radius and along < held.radius + safety_margin:
             nearer = [k for d, k in hits if d < dist and obstacle_ids[k] != held.obstacle_id]
             if not nearer:

@@ -9,15 +9,14 @@ A formation that no longer sees a narrow passage bids 1 and so expands again one
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
-import numpy as np
-
-from shoal.bus.geometry import FloatArray
+from shoal.bus.geometry import FloatArray, dot, norm
 
 # A passage is only entered if the heading crosses the gap at least this steeply:
 # cos of the angle between the heading and the line through the two centres.
-_MAX_ALONG_COS = np.cos(np.deg2rad(30.0))
+_MAX_ALONG_COS = math.cos(math.radians(30.0))
 
 
 # m/s: with ``strict`` bidding, an agent slower than this (a settled formation's chattering)
@@ -70,7 +69,7 @@ def passage_bid(
     these, an agent beside a pair, whose heading is dominated by the formation's own reshaping,
     bids and unbids every epoch, and σ flips for good (docs/safety.md, liveness).
     """
-    speed = float(np.linalg.norm(heading))
+    speed = norm(heading)
     if speed < (BID_SPEED if strict else 1e-9) or formation_radius <= 0.0:
         return 1.0
     unit = heading / speed
@@ -79,22 +78,20 @@ def passage_bid(
     for j in range(m):
         for k in range(j + 1, m):
             span = centres[k] - centres[j]
-            length = float(np.linalg.norm(span))
+            length = norm(span)
             usable = length - radii[j] - radii[k] - 2.0 * (safety_margin + epsilon)
             if usable >= 2.0 * formation_radius or length == 0.0:
                 continue  # the whole formation fits with its margins, or degenerate
             across = span / length
-            if abs(float(unit @ across)) > _MAX_ALONG_COS:
+            if abs(dot(unit, across)) > _MAX_ALONG_COS:
                 continue  # moving along the pair, not through it
-            through = unit - float(unit @ across) * across
-            through /= float(np.linalg.norm(through))
+            through = unit - dot(unit, across) * across
+            through /= norm(through)
             mid = (centres[j] + centres[k]) / 2.0
-            if strict and abs(float((position - mid) @ across)) > length / 2.0:
+            if strict and abs(dot(position - mid, across)) > length / 2.0:
                 continue  # beside the pair, not in line with its gap
             far = max(radii[j], radii[k]) + safety_margin + epsilon
-            ahead = min(
-                float((position - mid) @ through), float((position + slot_shift - mid) @ through)
-            )
+            ahead = min(dot(position - mid, through), dot(position + slot_shift - mid, through))
             if ahead >= far:
                 continue  # through, and so is the slot it will expand to
             need = sigma_max if usable <= 0 else 2.0 * formation_radius / usable

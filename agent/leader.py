@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, segment_distance
+from shoal.bus.geometry import FloatArray, dot, norm, segment_distance
 
 _STEP = math.radians(30.0)  # the polygon's largest turn per vertex
 _REACHED = 1e-9  # m: a waypoint this close counts as visited
@@ -32,12 +32,12 @@ def lead(
 
     Waypoints already reached are dropped first; with none left the leader stands still.
     """
-    while route and float(np.linalg.norm(route[0] - position)) <= _REACHED:
+    while route and norm(route[0] - position) <= _REACHED:
         route = route[1:]
     if not route:
         return np.zeros_like(position), route
     to_next = route[0] - position
-    dist = float(np.linalg.norm(to_next))
+    dist = norm(to_next)
     return to_next * (min(speed * dt, dist) / (dist * dt)), route
 
 
@@ -67,7 +67,7 @@ def detour(
             return route
         centre, radius = hit
         keep = radius + guard + clearance
-        if float(np.linalg.norm(target - centre)) <= keep:
+        if norm(target - centre) <= keep:
             return route  # the waypoint itself is in the way: no detour reaches it
         for longer in (False, True):
             polygon = _around(position, target, centre, keep, longer=longer)
@@ -87,7 +87,7 @@ def _first_in_way(
 ) -> tuple[FloatArray, float] | None:
     """The obstacle nearest along the leg among those it passes too close to."""
     hits = [
-        (float((c - position) @ (target - position)), i)
+        (dot(c - position, target - position), i)
         for i, (c, r) in enumerate(circles)
         if _blocks(position, target, c, r, guard, clearance)
     ]
@@ -109,14 +109,14 @@ def _near_polygon(
     centre, radius = circle
     if centre is around[0]:
         return False
-    reach = max(float(np.linalg.norm(v - around[0])) for v in polygon)
-    return float(np.linalg.norm(centre - around[0])) - radius < reach
+    reach = max(norm(v - around[0]) for v in polygon)
+    return norm(centre - around[0]) - radius < reach
 
 
 def _enclosing(circles: list[tuple[FloatArray, float]]) -> tuple[FloatArray, float]:
     """A circle (centre, radius) enclosing every one of ``circles``: about their centroid."""
     centre = np.mean([c for c, _ in circles], axis=0)
-    radius = max(float(np.linalg.norm(c - centre)) + r for c, r in circles)
+    radius = max(norm(c - centre) + r for c, r in circles)
     return np.asarray(centre, dtype=np.float64), radius
 
 
@@ -127,17 +127,17 @@ def _around(
     circle (``centre``, ``radius``): the shorter way, or with ``longer`` the other."""
     u = position - centre
     w = target - centre
-    du, dw = float(np.linalg.norm(u)), float(np.linalg.norm(w))
+    du, dw = norm(u), norm(w)
     e1 = u / du
     leg = target - position
-    side = w - (w @ e1) * e1  # the plane of the leg and the centre: e1, e2
-    if float(np.linalg.norm(side)) < 1e-12:  # the target straight behind the centre
-        side = _perpendicular(leg if float(np.linalg.norm(leg)) > 0 else e1)
-    e2 = side / float(np.linalg.norm(side))
+    side = w - dot(w, e1) * e1  # the plane of the leg and the centre: e1, e2
+    if norm(side) < 1e-12:  # the target straight behind the centre
+        side = _perpendicular(leg if norm(leg) > 0 else e1)
+    e2 = side / norm(side)
     # Angles in that plane: the agent at 0, the target at φ_t ∈ (0, π] (e2 points to the
     # target's side); the leg crosses the wedge between them, so the shorter detour goes round
     # there, the longer one the other way (e2 flipped, the target at 2π − φ_t).
-    phi_t = math.atan2(float(w @ e2), float(w @ e1))
+    phi_t = math.atan2(dot(w, e2), dot(w, e1))
     if phi_t < 0:
         phi_t += 2 * math.pi
     if longer:
@@ -163,4 +163,4 @@ def _perpendicular(v: FloatArray) -> FloatArray:
         axis = np.zeros(3)
         axis[int(np.argmin(np.abs(v)))] = 1.0
         out = np.cross(v, axis)
-    return np.asarray(out / float(np.linalg.norm(out)), dtype=np.float64)
+    return np.asarray(out / norm(out), dtype=np.float64)

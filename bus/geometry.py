@@ -1,6 +1,16 @@
-"""Formation geometry shared by agents and the world: the demanded shape R(θ)δ/σ of Remark 2.
+"""Formation geometry shared by agents and the world: the demanded shape R(θ)δ/σ of Remark 2,
+and the small-vector arithmetic every process must do to the same bits.
 
-The agent steers to it; the world measures the formation error against it.
+The agent steers to the shape; the world measures the formation error against it.
+
+**Portable arithmetic.** numpy hands ``a @ b``, ``np.dot`` and ``np.linalg.norm`` of a 1-D array to
+BLAS, and OpenBLAS picks its kernel by the CPU it runs on: on an AVX-512 machine (kernel
+"SkylakeX") ``np.linalg.norm`` of a 2-vector differs in the last bit from the same call under
+kernel "Haswell", and a run then leaves the reference by 1e-15 m within a thousand ticks
+(measured: the same numpy 2.4.6 wheel in a container, where OPENBLAS_CORETYPE was not set, and
+on the host, where it was). :func:`dot`, :func:`norm` and :func:`shaped` below do the sums in
+plain Python floats, in a fixed order (x·x + y·y + z·z), which IEEE 754 rounds the same way on
+every machine; elementwise numpy (+, −, ×, ÷, sqrt) is exact and needs no such care.
 """
 
 from __future__ import annotations
@@ -13,12 +23,28 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
+def dot(a: FloatArray, b: FloatArray) -> float:
+    """a · b of two (dim,) vectors, summed left to right in Python floats: the same bits on
+    every machine (see the module's docstring)."""
+    x, y = a.tolist(), b.tolist()
+    s = x[0] * y[0]
+    for k in range(1, len(x)):
+        s += x[k] * y[k]
+    return float(s)
+
+
+def norm(v: FloatArray) -> float:
+    """‖v‖ of a (dim,) vector: sqrt(v · v) with :func:`dot`; portable where np.linalg.norm is
+    not."""
+    return math.sqrt(dot(v, v))
+
+
 def segment_distance(point: FloatArray, a: FloatArray, b: FloatArray) -> float:
     """Distance from ``point`` to the segment from ``a`` to ``b``, m."""
     ab = b - a
-    length2 = float(ab @ ab)
-    t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, float((point - a) @ ab) / length2))
-    return float(np.linalg.norm(point - (a + t * ab)))
+    length2 = dot(ab, ab)
+    t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, dot(point - a, ab) / length2))
+    return norm(point - (a + t * ab))
 
 
 def rotation(theta: float, dim: int) -> FloatArray:
@@ -33,6 +59,13 @@ def rotation(theta: float, dim: int) -> FloatArray:
 
 
 def shaped(offsets: FloatArray, *, sigma: float, theta: float) -> FloatArray:
-    """Desired offsets under Remark 2: R(θ) δ / σ, for (dim,) or (k, dim) offsets in m."""
-    r = rotation(theta, offsets.shape[-1])
-    return (offsets @ r.T) / sigma
+    """Desired offsets under Remark 2: R(θ) δ / σ, for (dim,) or (k, dim) offsets in m.
+
+    R(θ)δ written out, (x·c + y·(−s), x·s + y·c[, z]), rather than a matrix product, which
+    numpy leaves to BLAS (see the module's docstring)."""
+    c, s = math.cos(theta), math.sin(theta)
+    out = np.array(offsets, dtype=np.float64, copy=True)
+    x, y = offsets[..., 0], offsets[..., 1]
+    out[..., 0] = x * c + y * -s
+    out[..., 1] = x * s + y * c
+    return out / sigma

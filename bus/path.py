@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.bus.geometry import FloatArray, norm
 from shoal.bus.types import PathSpec, Sinusoid, Waypoints
 
 
@@ -36,7 +36,9 @@ def path_positions(path: PathSpec, times: FloatArray) -> FloatArray:
         start = np.asarray(path.start, dtype=np.float64)
         direction = np.asarray(path.direction, dtype=np.float64)
         normal = np.asarray(path.normal, dtype=np.float64)
-        wave = path.amplitude * np.sin(2.0 * math.pi * times / path.period)
+        # math.sin, not np.sin: numpy's vectorised sine is its own (SIMD) code, libm's is not
+        phases = (2.0 * math.pi * times / path.period).tolist()
+        wave = path.amplitude * np.asarray([math.sin(x) for x in phases], dtype=np.float64)
         return np.asarray(
             start + np.outer(path.speed * times, direction) + np.outer(wave, normal),
             dtype=np.float64,
@@ -47,7 +49,7 @@ def path_positions(path: PathSpec, times: FloatArray) -> FloatArray:
 def _along_waypoints(path: Waypoints, distance: float) -> FloatArray:
     points = np.asarray(path.points, dtype=np.float64)
     for a, b in itertools.pairwise(points):
-        leg = float(np.linalg.norm(b - a))
+        leg = norm(b - a)
         if distance <= leg:
             out = a + (b - a) * (distance / leg) if leg > 0 else a.copy()
             return np.asarray(out, dtype=np.float64)
@@ -70,7 +72,7 @@ def peak_speed(path: PathSpec) -> FloatArray:
     points = np.asarray(path.points, dtype=np.float64)
     peak = np.zeros(points.shape[1])
     for a, b in itertools.pairwise(points):
-        leg = float(np.linalg.norm(b - a))
+        leg = norm(b - a)
         if leg > 0:
             peak = np.maximum(peak, np.abs(b - a) / leg * path.speed)
     return peak

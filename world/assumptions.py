@@ -23,7 +23,7 @@ import warnings
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, segment_distance
+from shoal.bus.geometry import FloatArray, norm, segment_distance
 from shoal.bus.path import path_positions, peak_speed
 from shoal.bus.types import Waypoints
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
@@ -85,7 +85,7 @@ def _assumption3(s: Scenario) -> None:
     scales = [1.0, *(r.scale for r in s.reshapes)]
     offsets = s.offsets
     for i, j in itertools.combinations(range(s.n), 2):
-        gap = float(np.linalg.norm(offsets[i] - offsets[j])) / max(scales)
+        gap = norm(offsets[i] - offsets[j]) / max(scales)
         if gap <= 2 * r_max:
             raise AssumptionError(
                 3,
@@ -176,7 +176,7 @@ def _obstacles_apart(s: Scenario) -> None:
     centres, radii = s.obstacle_centres, s.obstacle_radii
     rho = s.control.safety_margin
     for i, j in itertools.combinations(range(len(radii)), 2):
-        gap = float(np.linalg.norm(centres[i] - centres[j])) - radii[i] - radii[j]
+        gap = norm(centres[i] - centres[j]) - radii[i] - radii[j]
         if gap <= 0:
             raise ScenarioError(f"obstacles[{j}]", f"overlaps obstacles[{i}] (Section 3)")
         if s.control.safety == "filter" and gap <= 2 * rho:
@@ -249,7 +249,7 @@ def _safety(s: Scenario) -> None:
         )
     starts = s.initial_positions
     for i, j in itertools.combinations(range(s.n), 2):
-        gap = float(np.linalg.norm(starts[i] - starts[j]))
+        gap = norm(starts[i] - starts[j])
         if gap < s.separation:
             raise ScenarioError(
                 f"agents[{j}].initial",

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from shoal.bus.geometry import dot, norm
 from shoal.bus.types import PathSpec, Reshape, Sinusoid, Vector, Waypoints
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
@@ -294,20 +295,20 @@ def _path(value: Any, dim: int) -> PathSpec:
     )
     where = "leader.sinusoid"
     direction = np.asarray(_vector(s.get("direction"), f"{where}.direction", dim))
-    if np.linalg.norm(direction) == 0:
+    if norm(direction) == 0:
         raise ScenarioError(f"{where}.direction", "must not be zero")
-    direction = direction / np.linalg.norm(direction)
+    direction = direction / norm(direction)
     if "normal" in s:
         normal = np.asarray(_vector(s["normal"], f"{where}.normal", dim))
     else:  # the direction turned +90° in the xy-plane; along z, the x axis
         normal = np.zeros(dim)
         normal[:2] = (-direction[1], direction[0])
-        if np.linalg.norm(normal) < 1e-9:
+        if norm(normal) < 1e-9:
             normal[0] = 1.0
-    normal = normal - (normal @ direction) * direction
-    if np.linalg.norm(normal) < 1e-9:
+    normal = normal - dot(normal, direction) * direction
+    if norm(normal) < 1e-9:
         raise ScenarioError(f"{where}.normal", "must not be parallel to the direction")
-    normal = normal / np.linalg.norm(normal)
+    normal = normal / norm(normal)
     return Sinusoid(
         start=_vector(s.get("start"), f"{where}.start", dim),
         direction=tuple(float(x) for x in direction),

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, rotation
+from shoal.bus.geometry import FloatArray, norm, shaped
 from shoal.bus.path import path_position, peak_speed
 from shoal.world.scenario import Scenario
 from shoal.world.theory import convergence_bound
@@ -76,9 +76,9 @@ def formation_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
     for k in range(traj.ticks):
         desired = np.stack(
             [
-                rotation(float(traj.theta[k, i + 1]), scenario.dim)
-                @ offsets[i]
-                / traj.sigma[k, i + 1]
+                shaped(
+                    offsets[i], sigma=float(traj.sigma[k, i + 1]), theta=float(traj.theta[k, i + 1])
+                )
                 for i in range(offsets.shape[0])
             ]
         )
@@ -150,9 +150,11 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: str = "lockstep") 
         - traj.positions[0, 0]
         - np.stack(
             [
-                rotation(float(traj.theta[0, i]), scenario.dim)
-                @ scenario.offsets[i]
-                / traj.sigma[0, i]
+                shaped(
+                    scenario.offsets[i],
+                    sigma=float(traj.sigma[0, i]),
+                    theta=float(traj.theta[0, i]),
+                )
                 for i in range(1, scenario.n)
             ]
         )
@@ -195,5 +197,5 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: str = "lockstep") 
         filter_activity=float(traj.filtered.mean()) if traj.filtered.size else 0.0,
         stalls=sum(h > STALL_TIME for h in held),
         longest_stall=max(held, default=0.0),
-        leader_shortfall=float(np.linalg.norm(traj.positions[-1, 0] - goal)),
+        leader_shortfall=norm(traj.positions[-1, 0] - goal),
     )
