@@ -5,6 +5,7 @@ through the CLI whose saved failures replay exactly."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import os
 import signal
@@ -27,7 +28,7 @@ from shoal.tools.campaign.fields import (
     make_field,
     needed_contraction,
 )
-from shoal.tools.campaign.runner import judge
+from shoal.tools.campaign.runner import Outcome, judge, render, report
 from shoal.tools.cli import main
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
@@ -132,7 +133,7 @@ def test_a_small_campaign_is_safe_inside_and_its_failures_replay(tmp_path: Path)
     saved = tmp_path / "failures"
     code, rep = _campaign(
         "--fields", "10", "--obstacles", "1", "--outside-fields", "1", "--jobs", "2",
-        "--save-failures", str(saved), "--safety", "both",
+        "--save-failures", str(saved), "--safety", "both", "--save-lagging", str(tmp_path / "lag"),
     )  # fmt: skip
     assert code == 0, rep["failures"]
     inside = rep["sets"]["inside"]
@@ -154,6 +155,8 @@ def test_a_small_campaign_is_safe_inside_and_its_failures_replay(tmp_path: Path)
         assert clr["min"] <= clr["p01"] <= clr["p05"] <= clr["p50"]
     assert rep["sets"]["A4/paper"]["collided"] == 1  # the leader drives through the obstacle
     assert rep["sets"]["A4"]["leader_reached"] == 1  # filtered, it goes round instead
+    for g in rep["lagging"]:  # saved as the field it is
+        assert Path(g["file"]).read_text().startswith("#") and g["file"].endswith(".yaml")
     failures = rep["failures"]
     assert sum(s["collided"] for s in rep["sets"].values()) == len(failures)
     assert any(f["rerun"] == "simulate" for f in failures)  # one the loader accepts
@@ -239,3 +242,24 @@ def test_ctrl_c_stops_a_campaign_at_once_and_leaves_no_worker() -> None:
         proc.wait()
     assert proc.returncode == 1 and "Aborted!" in err
     assert not left
+
+
+def test_the_report_lists_every_safe_field_that_stalled_or_did_not_settle() -> None:
+    ok = Outcome(
+        "inside", 0, "f-0", 2, 0, 0, 0.3, 0.5, 1.0, 2.0, 0.05, 0.2, 1.0, False, 1, 0, 1.0,
+        source="yaml",
+    )  # fmt: skip
+    stalled = dataclasses.replace(ok, seed=1, stalls=2, longest_stall=1.5)
+    unsettled = dataclasses.replace(ok, seed=2, final_formation_error=0.5)
+    short = dataclasses.replace(ok, seed=3, leader_reached=False)
+    crashed = dataclasses.replace(unsettled, seed=4, obstacle_collisions=1)  # a failure instead
+    rep = report([ok, stalled, unsettled, short, crashed], wall=1.0, jobs=1)
+    assert [g["seed"] for g in rep["lagging"]] == [1, 2, 3]
+    assert [f["seed"] for f in rep["failures"]] == [4]
+    assert rep["lagging"][0]["longest_stall"] == 1.5 and rep["lagging"][0]["settled"]
+    assert not rep["lagging"][1]["settled"] and not rep["lagging"][2]["leader_reached"]
+    text = render(rep)
+    assert "3 safe fields to look at" in text
+    assert "seed      1: 2 stalls, longest 1.50 s" in text
+    assert "seed      2: not settled (error 0.500 m)" in text
+    assert "seed      3: leader short of its goal" in text

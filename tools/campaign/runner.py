@@ -103,7 +103,7 @@ def measure(
     """The campaign's figures of one run: the summary's, with collisions split by kind."""
     clear = clearances(field, traj)
     spacing = min_desired_spacing(field) / summary.sigma
-    return Outcome(
+    outcome = Outcome(
         mode=mode,
         seed=field.seed,
         name=field.name,
@@ -121,13 +121,15 @@ def measure(
         omega_episodes=summary.omega_episodes,
         assumption2_violations=summary.assumption2_violations,
         seconds=seconds,
-        source=field.source if summary.collisions else "",
         safety=summary.safety,
         filter_activity=summary.filter_activity,
         stalls=summary.stalls,
         longest_stall=summary.longest_stall,
         leader_reached=summary.leader_shortfall <= summary.tolerance,
     )
+    if outcome.collided or lagged(outcome):  # kept to be saved: the field's own YAML
+        outcome = dataclasses.replace(outcome, source=field.source)
+    return outcome
 
 
 def min_desired_spacing(s: Scenario) -> float:
@@ -281,6 +283,13 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
          "rerun": "campaign --rerun" if o.mode in REFUSED else "simulate", "safety": o.safety}
         for o in outcomes if o.error is None and o.collided
     ]  # fmt: skip
+    lagging = [
+        {"set": o.set_name, "seed": o.seed, "name": o.name, "stalls": o.stalls,
+         "longest_stall": o.longest_stall, "final_formation_error": o.final_formation_error,
+         "tolerance": o.tolerance, "settled": o.final_formation_error <= o.tolerance,
+         "leader_reached": o.leader_reached, "safety": o.safety}
+        for o in outcomes if o.error is None and not o.collided and lagged(o)
+    ]  # fmt: skip
     errors = [{"set": o.set_name, "seed": o.seed, "error": o.error} for o in outcomes if o.error]
     return {
         "fields": len(outcomes),
@@ -290,8 +299,14 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
         "cpu_s_per_field": round(sum(o.seconds for o in outcomes) / max(1, len(outcomes)), 3),
         "sets": sets,
         "failures": failures,
+        "lagging": lagging,
         "errors": errors,
     }
+
+
+def lagged(o: Outcome) -> bool:
+    """Safe, but worth a look: it stalled, did not settle, or its leader fell short."""
+    return o.stalls > 0 or o.final_formation_error > o.tolerance or not o.leader_reached
 
 
 def saved_stem(name: str, safety: str) -> str:
@@ -299,16 +314,24 @@ def saved_stem(name: str, safety: str) -> str:
     return name if safety == "filter" else f"{name}-paper"
 
 
-def save_failures(outcomes: Iterable[Outcome], directory: Path) -> list[Path]:
-    """Write every field that collided as ``DIR/<name>.yaml``; its header says how to rerun."""
+def save_failures(
+    outcomes: Iterable[Outcome], directory: Path, which: Callable[[Outcome], bool] | None = None
+) -> list[Path]:
+    """Write every field that collided (or, given ``which``, every one it picks) as
+    ``DIR/<name>.yaml``; its header says how to rerun it."""
+    pick = which or (lambda o: o.collided)
     directory.mkdir(parents=True, exist_ok=True)
     written = []
     for o in outcomes:
-        if o.error is None and o.collided:
+        if o.error is None and o.source and pick(o):
             path = directory / f"{saved_stem(o.name, o.safety)}.yaml"
             path.write_text(o.source, encoding="utf-8")
             written.append(path)
     return written
+
+
+# Lagging fields listed in the text report; --json lists every one.
+LAGGING_SHOWN = 20
 
 
 def _num(value: Any, digits: int = 3) -> str:
@@ -359,6 +382,19 @@ def render(rep: dict[str, Any]) -> str:
         f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "
         f"({rep['fields_per_s']} fields/s; {rep['cpu_s_per_field']} CPU s per field)"
     )
+    if rep["lagging"]:
+        lines.append(
+            f"{len(rep['lagging'])} safe fields to look at (--save-lagging DIR keeps them):"
+        )
+    for g in rep["lagging"][:LAGGING_SHOWN]:
+        what = [f"{g['stalls']} stalls, longest {g['longest_stall']:.2f} s"] if g["stalls"] else []
+        if not g["settled"]:
+            what.append(f"not settled (error {g['final_formation_error']:.3f} m)")
+        if not g["leader_reached"]:
+            what.append("leader short of its goal")
+        lines.append(f"  {g['set']:<12} seed {g['seed']:>6}: {'; '.join(what)}")
+    if len(rep["lagging"]) > LAGGING_SHOWN:
+        lines.append(f"  … and {len(rep['lagging']) - LAGGING_SHOWN} more (--json lists all)")
     for e in rep["errors"]:
         lines.append(f"not drawn: {e['set']} seed {e['seed']}: {e['error']}")
     return "\n".join(lines)

@@ -13,7 +13,15 @@ import click
 
 from shoal.bus.runtime import exit_on_signals
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
-from shoal.tools.campaign.runner import measure, render, report, run_campaign, saved_stem, tasks
+from shoal.tools.campaign.runner import (
+    lagged,
+    measure,
+    render,
+    report,
+    run_campaign,
+    saved_stem,
+    tasks,
+)
 from shoal.tools.campaign.runner import save_failures as write_failures
 from shoal.tools.campaign.swarms import render_swarms, run_swarms, swarm_report
 from shoal.tools.commands.options import load_for_cli
@@ -74,6 +82,12 @@ def _count(text: str) -> tuple[int, int]:
     help="Write every field that collided to this directory as scenario YAML.",
 )
 @click.option(
+    "--save-lagging",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Write every safe field that stalled, did not settle or left its leader short of "
+    "its goal to this directory as scenario YAML.",
+)
+@click.option(
     "--rerun",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     help="Run one saved field (even one the loader refuses) and print its summary.",
@@ -94,6 +108,7 @@ def campaign(
     swarm: int | None,
     swarm_clock: str,
     save_failures: Path | None,
+    save_lagging: Path | None,
     rerun: Path | None,
     as_json: bool,
 ) -> None:
@@ -132,6 +147,15 @@ def campaign(
         written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
         for failure in rep["failures"]:
             failure["file"] = written.get(saved_stem(failure["name"], failure["safety"]))
+    if save_lagging is not None:
+        kept = {
+            p.stem: str(p)
+            for p in write_failures(
+                outcomes, save_lagging, which=lambda o: lagged(o) and not o.collided
+            )
+        }
+        for field in rep["lagging"]:
+            field["file"] = kept.get(saved_stem(field["name"], field["safety"]))
     click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
     _exit_status(rep, save_failures, "inside/paper" if safety == "paper" else "inside")
 
