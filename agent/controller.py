@@ -289,9 +289,18 @@ class Controller:
         the heading is the formation's. The set-point, not the direction of (1), is tested:
         near the slot the sign term turns that direction every tick. The paper mode keeps
         episodes as (11) has them.
+
+        With the safety filter a follower whose neighbours all evade follows them all the same,
+        where Algorithm 2 would leave it with no neighbour and so standing still (Assumption 2
+        broken in the run). Measured: such a follower stood still behind the formation for good,
+        and pulled its evading neighbours' set-points back into their obstacles, so their
+        episodes never ended either. Following evading neighbours costs shape, never safety: the
+        filter keeps that.
         """
         cfg, p = self.config, self.params
         keep = [k for k, j in enumerate(cfg.senses) if j in neighbours and not neighbours[j].omega]
+        if p.filtered and not keep:  # every neighbour evades: follow them all the same
+            keep = [k for k, j in enumerate(cfg.senses) if j in neighbours]
         sigma, theta = self.shape(sensing.tick, memory.sigma_consensus)
         positions = np.asarray(
             [neighbours[cfg.senses[k]].position for k in keep], dtype=np.float64

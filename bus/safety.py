@@ -344,7 +344,12 @@ def safe_velocity(
             onward = keep_going(capped, out.velocity, previous, rows, dt)
             if onward is not None:
                 again = project(onward, rows, dt)
-                if not again.fallback:
+                kept = _dot(again.velocity, again.velocity)
+                # Only if the way onward is open: blocked there (another agent, another row),
+                # going back is the agent's way out, and insisting held it for good (measured).
+                if not again.fallback and kept >= SIDESTEP_BELOW**2 * _dot(
+                    out.velocity, out.velocity
+                ):
                     out = Filtered(again.velocity, active=True)
     if capped is not nominal and not out.active:
         return Filtered(out.velocity, active=True)

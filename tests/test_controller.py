@@ -232,3 +232,18 @@ def test_bad_config_is_refused_with_the_field_named() -> None:
         Controller(replace(cfg, offset=(1.0, 2.0, 3.0)))
     with pytest.raises(ConfigError, match=r"params\.rounds"):
         Controller(replace(cfg, params=replace(cfg.params, rounds=0)))
+
+
+@pytest.mark.parametrize("safety", ["filter", "paper"])
+def test_a_follower_whose_neighbours_all_evade_follows_them_with_the_filter(safety: str) -> None:
+    """Algorithm 2 drops every evading neighbour, so a follower whose neighbours all evade has
+    none and stands still (Assumption 2 broken in the run). With the safety filter it follows
+    them all the same (measured: such a follower stood still behind the formation for good);
+    the paper mode keeps Algorithm 2 as it is."""
+    c = Controller(triangle(control={"alpha": 1.0, "beta": 2.0, "safety": safety}).agent_config(2))
+    me, leader, three = (-1.0, 1.5), (0.5, 0.0), (-2.5, -2.0)
+    v = command_of(c, me, {1: state(1, leader, omega=True), 3: state(3, three, omega=True)})
+    if safety == "paper":
+        assert np.array_equal(v, [0.0, 0.0])
+    else:
+        assert np.array_equal(v, law(me, (-2, 2), [(leader, (0, 0)), (three, (-2, -2))]))

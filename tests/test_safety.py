@@ -29,6 +29,7 @@ from shoal.bus.safety import (
     safe_velocity,
     satisfies,
 )
+from shoal.bus.types import Sensing
 from shoal.world.kinematics import sense_all
 
 
@@ -294,3 +295,27 @@ def test_case_generator_builds_safe_cases() -> None:
     c: Case = random_case(np.random.default_rng(5), dim=3)
     assert len(c.sensing.position) == 3
     assert all(r.bound <= 0 for r in c.rows())
+
+
+def test_an_agent_whose_way_on_is_blocked_by_a_neighbour_turns_back_along_the_guard() -> None:
+    """Liveness: going on the way it was going (``previous``) is right against a guard, but not
+    into a neighbour's cell. Measured in campaign field 818: an agent on an obstacle's guard,
+    its last heading pointing round the guard towards a neighbour at the separation, was turned
+    that way every tick, projected to a standstill and held for 6.4 s until the run ended."""
+    centre, guard, half = np.array([8.097, 2.725]), 1.276 + 0.2, 0.2
+    out = np.array([-0.551, 0.834]) / np.hypot(-0.551, 0.834)
+    me = centre + guard * out  # on the guard, up and left of the obstacle
+    neighbour = me - 2 * half * np.array([0.747, 0.665]) / np.hypot(0.747, 0.665)
+    sensing = Sensing(
+        tick=0, position=tuple(me.tolist()), obstacle_ids=(0,),
+        obstacle_centres=(tuple(centre.tolist()),), obstacle_radii=(1.276,),
+        agent_ids=(4,), agent_positions=(tuple(neighbour.tolist()),),
+    )  # fmt: skip
+    nominal = (7.83, -3.92)  # its slot lies behind the obstacle, down and to the right
+    kw = {"dt": 0.01, "margin": 0.2, "half_separation": half, "speed_limit": 10.0}
+    bare = np.asarray(safe_velocity(nominal, sensing, 2, right_hand=False, **kw).velocity)
+    got = np.asarray(safe_velocity(nominal, sensing, 2, previous=(-0.269, 0.07), **kw).velocity)
+    tangent = np.array([out[1], -out[0]])  # round the guard, away from the neighbour
+    assert bare @ tangent > 1.0  # the projection slides on round the guard
+    assert got @ tangent >= 0.25 * np.linalg.norm(bare)  # and so does the filter
+    assert np.linalg.norm(got - bare) < 1e-9 * np.linalg.norm(bare)
