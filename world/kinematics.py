@@ -42,9 +42,10 @@ def sense_all(
     centre_rows = [tuple(c) for c in centres.tolist()]
     radius_list = radii.tolist()
     out = []
-    for i, row in enumerate(rows):
-        seen = np.flatnonzero(near[i]).tolist()
-        others = np.flatnonzero(close[i]).tolist()
+    # The masks as lists of bools: indexing them in Python is cheaper than a numpy call per row.
+    for row, near_i, close_i in zip(rows, near.tolist(), close.tolist(), strict=True):
+        seen = [k for k, hit in enumerate(near_i) if hit]
+        others = [q for q, hit in enumerate(close_i) if hit]
         out.append(
             Sensing(
                 tick=tick,
