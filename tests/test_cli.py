@@ -119,3 +119,20 @@ def test_run_on_an_unreachable_router_says_so_and_starts_nothing(tmp_path: Path)
     assert f"the router at {endpoint}: cannot open a Zenoh session" in result.stderr
     assert "is a router running there?" in result.stderr and "logger" not in result.stderr
     assert not out.exists()
+
+
+def test_simulate_out_names_the_file_it_writes_and_never_overwrites_unasked(
+    tmp_path: Path,
+) -> None:
+    named = tmp_path / "run.mcap"  # not .npz: numpy would add it, so the path said is the real one
+    first = CliRunner().invoke(main, ["simulate", "sinusoid", "--out", str(named)])
+    assert first.exit_code == 0, first.output
+    real = tmp_path / "run.mcap.npz"
+    assert f"trajectories written to {real}" in first.output and real.exists()
+    assert not named.exists() and not list(tmp_path.glob("*.part"))
+    again = CliRunner().invoke(main, ["simulate", "sinusoid", "--out", str(real)])
+    assert again.exit_code == 1 and "exists; pass --force" in again.output
+    forced = CliRunner().invoke(main, ["simulate", "sinusoid", "--out", str(real), "--force"])
+    assert forced.exit_code == 0, forced.output
+    nowhere = CliRunner().invoke(main, ["simulate", "sinusoid", "--out", str(tmp_path / "a/b.npz")])
+    assert nowhere.exit_code == 1 and "is not a folder" in nowhere.output

@@ -5,9 +5,11 @@ Shapes use T = number of ticks, n = agents, dim = 2 or 3. Tick k covers [k·dt, 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,9 +59,16 @@ class Trajectory:
         return int(self.velocities.shape[0])
 
     def save(self, path: Path) -> None:
-        """Write an .npz file (uncompressed, exact float64)."""
+        """Write an .npz file (uncompressed, exact float64) at exactly ``path``, whole or not at
+        all: it is written beside it and renamed into place."""
+        part = path.with_name(path.name + ".part")
+        with part.open("wb") as f:  # a file object: numpy appends no ".npz" to the name
+            self._write(f)
+        os.replace(part, path)
+
+    def _write(self, f: BinaryIO) -> None:
         np.savez(
-            path,
+            f,
             dt=np.float64(self.dt),
             positions=self.positions,
             velocities=self.velocities,

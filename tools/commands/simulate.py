@@ -20,15 +20,22 @@ from shoal.world.metrics import summarize
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, writable=True, path_type=Path),
-    help="Save the trajectories to this .npz file.",
+    help="Save the trajectories to this .npz file (.npz is added to a name without it).",
 )
-def simulate(scenario: str, as_json: bool, out: Path | None) -> None:
+@click.option("--force", is_flag=True, help="Overwrite the --out file if it exists.")
+def simulate(scenario: str, as_json: bool, out: Path | None, force: bool) -> None:
     """Run SCENARIO (a built-in name or a YAML file) in one process, exactly.
 
     Every agent's controller and the world's kinematics are called in lockstep, the same
     functions the distributed run calls. Built-ins: see `shoal scenarios`.
     """
     scn = load_for_cli(scenario)
+    if out is not None:
+        out = out if out.suffix == ".npz" else out.with_name(out.name + ".npz")
+        if out.exists() and not force:
+            raise click.ClickException(f"{out} exists; pass --force to overwrite it")
+        if not out.parent.is_dir():
+            raise click.ClickException(f"{out.parent} is not a folder: cannot write {out.name}")
     show_bar = not as_json and sys.stderr.isatty()
     with click.progressbar(
         length=scn.steps, label=f"simulating {scn.name}", file=sys.stderr, hidden=not show_bar
