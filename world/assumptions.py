@@ -45,6 +45,13 @@ def check_assumptions(s: Scenario) -> None:
     _beta(s)
 
 
+def check_graph(s: Scenario) -> None:
+    """Assumptions 1 and 2 alone, with or without obstacles: the graph a scenario's obstacles
+    will need (A2 is checked at load only when there are obstacles to evade)."""
+    _assumption1(s)
+    _assumption2(s)
+
+
 def _followers(ids: set[int]) -> str:
     return ", ".join(str(i + 1) for i in sorted(ids))
 
