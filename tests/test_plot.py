@@ -23,7 +23,9 @@ from shoal.tools.plot.figures import (
     distances,
     formation_error,
     omega_timeline,
+    trajectories,
 )
+from shoal.tools.shapes import new_scenario
 from shoal.tools.simulator import simulate
 from shoal.world.errors import BetaWarning
 from shoal.world.loader import load_scenario, parse_scenario
@@ -196,3 +198,52 @@ def test_plot_names_an_unknown_figure_and_refuses_a_file_that_is_not_mcap() -> N
     assert bogus.exit_code == 1 and "unknown figure(s) ['nope']" in bogus.output
     garbage = CliRunner().invoke(main, ["plot", __file__])
     assert garbage.exit_code == 1 and "not an MCAP file" in garbage.output
+
+
+def test_trajectories_mark_every_collision_where_it_began() -> None:
+    """Field 0 of the campaign with Algorithm 2 alone collides: each onset is an ×, at the
+    colliding agent's position at that moment, and the title counts them."""
+    field = make_field(load_scenario("obstacles"), 0, options=FieldOptions(safety="paper"))
+    view = RunView(scenario=field, traj=simulate(field), label="collides")
+    (ax,) = trajectories(view).axes
+    (marks,) = [ln for ln in ax.get_lines() if ln.get_label() == "collision (where it began)"]
+    clear = clearances(field, view.traj) < field.agent_radius
+    onsets = [
+        (k, i)
+        for i in range(field.n)
+        for k in range(clear.shape[0])
+        if clear[k, i].any() and (k == 0 or not clear[k - 1, i].any())
+    ]
+    assert onsets  # it does collide
+    spots = {
+        (float(x), float(y)) for x, y in zip(marks.get_xdata(), marks.get_ydata(), strict=True)
+    }
+    assert spots == {tuple(float(c) for c in view.traj.positions[k, i, :2]) for k, i in onsets}
+    assert f"{len(onsets)} collision" in ax.get_title()
+    safe = view_of("obstacles")
+    (clean,) = trajectories(safe).axes
+    assert not [ln for ln in clean.get_lines() if ln.get_label() == "collision (where it began)"]
+
+
+def test_a_big_formation_names_followers_on_the_plot_not_in_the_legend() -> None:
+    text = new_scenario(shape="grid", agents=14, length=3.0)
+    scenario = parse_scenario(text)
+    view = RunView(scenario=scenario, traj=simulate(scenario), label="grid")
+    (ax,) = trajectories(view).axes
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "agent 1 (leader)" in labels and "agent 2" not in labels
+    assert len(labels) <= 8
+    ends = {t.get_text() for t in ax.texts}
+    assert ends == {str(i) for i in range(2, 15)}  # every follower's id, at its path's end
+
+
+def test_a_3d_run_shows_its_height_in_two_more_projections() -> None:
+    scenario = parse_scenario(new_scenario(shape="grid", agents=8, dim=3, length=3.0))
+    assert float(np.ptp(scenario.offsets[:, 2])) > 0  # the grid's second layer flies higher
+    view = RunView(scenario=scenario, traj=simulate(scenario), label="3-D")
+    axes = trajectories(view).axes
+    assert [(a.get_xlabel(), a.get_ylabel()) for a in axes] == [
+        ("x (m)", "y (m)"), ("x (m)", "z (m)"), ("y (m)", "z (m)"),
+    ]  # fmt: skip
+    heights = np.concatenate([ln.get_ydata() for ln in data_lines(axes[1])])
+    assert float(heights.max()) == pytest.approx(float(view.traj.positions[:, :, 2].max()))

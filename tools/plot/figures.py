@@ -3,7 +3,7 @@
 Pure drawing: every function takes the run and returns a matplotlib ``Figure``; nothing here
 reads files or picks a backend (``tools.plot`` does both). Agents are named by their ids, the
 paper's 1..n (1 is the leader) as everywhere in shoal; arrays are indexed from 0. Distances in
-m, times in s of simulated time. A 3-D run is drawn projected on its x–y plane.
+m, times in s of simulated time. A 3-D run's trajectories add its x–z and y–z projections.
 """
 
 from __future__ import annotations
@@ -79,49 +79,110 @@ def _omega_at(view: RunView, k: int) -> np.ndarray[Any, np.dtype[np.bool_]]:
     return np.asarray(view.traj.omega[min(k, view.traj.ticks - 1)], dtype=np.bool_)
 
 
+# Above this many agents the legend names the leader only; the followers' ids are written at
+# the ends of their paths instead (a legend of 12+ entries hid the plot).
+LEGEND_AGENTS = 10
+
+
 def trajectories(view: RunView) -> Figure:
     """Fig. 1b / 2a / 3a: every agent's path, the obstacles with their trigger discs, the
-    leader's reference path and formation snapshots with the graph's edges (an edge to an
-    evading agent, which its neighbours drop, dashed grey)."""
-    sc, pos = view.scenario, view.traj.positions
-    fig = _figure(9.0, 6.0)
-    ax = fig.add_subplot()
-    for o in sc.obstacles:
-        x, y = o.centre[0], o.centre[1]
-        ax.add_patch(Circle((x, y), o.radius, color="0.35", zorder=1))
-        trigger = o.radius + sc.control.trigger_radius
-        ax.add_patch(Circle((x, y), trigger, fill=False, ls=":", color="0.55", lw=0.8, zorder=1))
-    ref = path_positions(sc.path, view.times)
-    ax.plot(ref[:, 0], ref[:, 1], color="k", lw=0.8, ls="--", label="leader's path", zorder=2)
-    for i in range(sc.n):
-        ax.plot(pos[:, i, 0], pos[:, i, 1], color=colour(i), lw=1.2, label=agent_name(i), zorder=3)
-        evading = np.concatenate([view.traj.omega[:, i], [False]])
-        if evading.any():
-            masked = np.where(evading[:, None], pos[:, i, :2], np.nan)
-            ax.plot(masked[:, 0], masked[:, 1], color=colour(i), lw=3.5, alpha=0.45, zorder=3)
-    shades = np.linspace(0.25, 0.9, len(_snapshot_ticks(view)))
-    for shade, k in zip(shades, _snapshot_ticks(view), strict=True):
-        _draw_formation(ax, view, k, alpha=float(shade))
-    ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.grid(True, lw=0.3)
-    handles, _ = ax.get_legend_handles_labels()
+    leader's reference path, formation snapshots with the graph's edges (an edge to an evading
+    agent, which its neighbours drop, dashed grey) and every collision, marked where it began.
+    A 3-D run gets two more panels, the x–z and y–z projections."""
+    sc = view.scenario
+    if sc.dim == 3:
+        fig = _figure(9.0, 9.0)
+        grid = fig.add_gridspec(2, 2, height_ratios=(2.0, 1.0))
+        main = fig.add_subplot(grid[0, :])
+        sides = [(fig.add_subplot(grid[1, 0]), (0, 2)), (fig.add_subplot(grid[1, 1]), (1, 2))]
+    else:
+        fig = _figure(9.0, 6.0)
+        main, sides = fig.add_subplot(), []
+    _draw_paths(main, view, (0, 1), snapshots=True)
+    for ax, axes in sides:
+        _draw_paths(ax, view, axes, snapshots=False)
+    handles, _ = main.get_legend_handles_labels()
     handles += [
         Line2D([], [], color="0.35", marker="o", ls="", ms=9, label="obstacle"),
         Line2D([], [], color="0.55", ls=":", label="obstacle + trigger radius"),
         Line2D([], [], color="0.3", lw=3.5, alpha=0.45, label="evading (Ω = 1)"),
         Line2D([], [], color="0.5", ls="--", lw=0.8, label="edge dropped (evading)"),
     ]
-    ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    if sc.n > LEGEND_AGENTS:
+        handles.append(Line2D([], [], color="0.3", lw=1.2, label="followers: id at path's end"))
+    main.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     times = ", ".join(f"{k * view.traj.dt:g}" for k in _snapshot_ticks(view))
-    projected = " (x–y projection)" if sc.dim == 3 else ""
-    ax.set_title(f"{view.label}: trajectories{projected}\nformation at t = {times} s")
+    hits = len(_collisions(view))
+    crashed = f"; {hits} collision{'s' if hits != 1 else ''} (×)" if hits else ""
+    main.set_title(f"{view.label}: trajectories{crashed}\nformation at t = {times} s")
     return fig
 
 
-def _draw_formation(ax: Axes, view: RunView, k: int, *, alpha: float) -> None:
-    sc, p = view.scenario, view.traj.positions[k]
+_AXIS_NAMES = ("x", "y", "z")
+
+
+def _draw_paths(ax: Axes, view: RunView, axes: tuple[int, int], *, snapshots: bool) -> None:
+    """Paths, obstacles and collisions projected on the coordinates ``axes`` (0 x, 1 y, 2 z)."""
+    sc, pos = view.scenario, view.traj.positions
+    u, w = axes
+    for o in sc.obstacles:
+        x, y = o.centre[u], o.centre[w]  # a sphere projects onto a circle of its radius
+        ax.add_patch(Circle((x, y), o.radius, color="0.35", zorder=1))
+        trigger = o.radius + sc.control.trigger_radius
+        ax.add_patch(Circle((x, y), trigger, fill=False, ls=":", color="0.55", lw=0.8, zorder=1))
+    ref = path_positions(sc.path, view.times)
+    ax.plot(ref[:, u], ref[:, w], color="k", lw=0.8, ls="--", label="leader's path", zorder=2)
+    named = sc.n <= LEGEND_AGENTS
+    for i in range(sc.n):
+        label = agent_name(i) if named or i == 0 else None
+        ax.plot(pos[:, i, u], pos[:, i, w], color=colour(i), lw=1.2, label=label, zorder=3)
+        evading = np.concatenate([view.traj.omega[:, i], [False]])
+        if evading.any():
+            masked = np.where(evading[:, None], pos[:, i, :][:, [u, w]], np.nan)
+            ax.plot(masked[:, 0], masked[:, 1], color=colour(i), lw=3.5, alpha=0.45, zorder=3)
+        if not named and i > 0:
+            ax.annotate(
+                str(i + 1), (pos[-1, i, u], pos[-1, i, w]), fontsize=7, color=colour(i),
+                xytext=(3, 3), textcoords="offset points", zorder=6,
+            )  # fmt: skip
+    if snapshots:
+        shades = np.linspace(0.25, 0.9, len(_snapshot_ticks(view)))
+        for shade, k in zip(shades, _snapshot_ticks(view), strict=True):
+            _draw_formation(ax, view, k, alpha=float(shade), axes=axes)
+    spots = _collisions(view)
+    if spots:
+        where = np.asarray([pos[k, i] for k, i, _ in spots])
+        ax.plot(
+            where[:, u], where[:, w], ls="", marker="X", ms=11, color="r", mec="k", mew=0.6,
+            label="collision (where it began)", zorder=7,
+        )  # fmt: skip
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(f"{_AXIS_NAMES[u]} (m)")
+    ax.set_ylabel(f"{_AXIS_NAMES[w]} (m)")
+    ax.grid(True, lw=0.3)
+
+
+def _collisions(view: RunView) -> list[tuple[int, int, str]]:
+    """(position index, agent column, what) of every collision's first moment: an agent closer
+    than its radius to an obstacle's edge, or two agents closer than twice it (both marked)."""
+    sc, traj = view.scenario, view.traj
+    out: list[tuple[int, int, str]] = []
+    if sc.obstacles:
+        inside = np.asarray((clearances(sc, traj) < sc.agent_radius).any(axis=2), dtype=np.bool_)
+        for i in range(sc.n):
+            out += [(a, i, "obstacle") for a, _ in _runs(inside[:, i])]
+    close = np.asarray(pair_distances(traj) < 2 * sc.agent_radius, dtype=np.bool_)
+    for col, (i, j) in enumerate(itertools.combinations(range(sc.n), 2)):
+        for a, _ in _runs(close[:, col]):
+            out += [(a, i, "agent"), (a, j, "agent")]
+    return sorted(out)
+
+
+def _draw_formation(
+    ax: Axes, view: RunView, k: int, *, alpha: float, axes: tuple[int, int] = (0, 1)
+) -> None:
+    sc, full = view.scenario, view.traj.positions[k]
+    p = full[:, list(axes)]
     omega = _omega_at(view, k)
     for i, j in _edge_columns(sc):
         dropped = bool(omega[i] or omega[j])
