@@ -28,7 +28,14 @@ from shoal.agent.leader import detour, lead
 from shoal.bus.geometry import FloatArray, segment_distance
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
-from shoal.bus.types import AgentConfig, AgentState, Command, Sensing, Waypoints
+from shoal.bus.types import (
+    AgentConfig,
+    AgentState,
+    Command,
+    Sensing,
+    Waypoints,
+    config_problem,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -328,24 +335,6 @@ class Controller:
 
 
 def _validate(config: AgentConfig) -> None:
-    p = config.params
-    if config.dim not in (2, 3):
-        raise ConfigError("dim", f"must be 2 or 3, got {config.dim}")
-    if len(config.offset) != config.dim:
-        raise ConfigError("offset", f"has {len(config.offset)} coordinates, dim is {config.dim}")
-    if len(config.neighbour_offsets) != len(config.senses):
-        raise ConfigError("neighbour_offsets", "needs one offset per sensed neighbour")
-    if any(len(o) != config.dim for o in config.neighbour_offsets):
-        raise ConfigError("neighbour_offsets", f"every offset needs {config.dim} coordinates")
-    if config.dt <= 0:
-        raise ConfigError("dt", f"must be > 0 s, got {config.dt}")
-    for name in ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max"):
-        if not getattr(p, name) > 0:
-            raise ConfigError(f"params.{name}", f"must be > 0, got {getattr(p, name)}")
-    if p.safety not in ("filter", "paper"):
-        raise ConfigError("params.safety", f"must be filter or paper, got {p.safety!r}")
-    for name in ("speed_limit", "separation"):
-        if not getattr(p, name) > 0:
-            raise ConfigError(f"params.{name}", f"must be > 0, got {getattr(p, name)}")
-    if p.rounds < 1:
-        raise ConfigError("params.rounds", f"must be ≥ 1 (the graph diameter), got {p.rounds}")
+    problem = config_problem(config)
+    if problem is not None:
+        raise ConfigError(*problem)

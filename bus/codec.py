@@ -20,16 +20,19 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.types import (
     AgentConfig,
     AgentState,
+    Clock,
     Command,
     ControlParams,
     Event,
     PathSpec,
     Reshape,
+    Safety,
     Sensing,
     Sinusoid,
     TickRecord,
     Vector,
     Waypoints,
+    config_problem,
 )
 
 SCHEMA = 2  # 2: sensing carries nearby agents; commands and ticks the filter flag; safety params
@@ -339,38 +342,30 @@ def _path_from(value: Any, where: str) -> PathSpec | None:
     raise DecodeError(f"{where}.type: unknown path type {_shown.repr(kind)}")
 
 
-def _path_vectors(p: PathSpec | None) -> tuple[Vector, ...]:
-    if p is None:
-        return ()
-    if isinstance(p, Waypoints):
-        return p.points
-    return (p.start, p.direction, p.normal)
-
-
 _PARAMS = (
     "alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "safety_margin",
     "heading_tau", "sigma_max", "boundary_layer", "speed_limit", "separation",
 )  # fmt: skip
-SAFETY_MODES = ("filter", "paper")
+SAFETY_MODES = tuple(Safety)
 
 
-CLOCKS = ("lockstep", "realtime")
+CLOCKS = tuple(Clock)
 
 
-def encode_config(c: AgentConfig, *, clock: str = "lockstep") -> bytes:
+def encode_config(c: AgentConfig, *, clock: Clock = Clock.LOCKSTEP) -> bytes:
     """An agent's configuration, with the run's clock ("lockstep" or "realtime")."""
     p = c.params
     return _pack(
         "config",
         {
-            "clock": clock,
+            "clock": str(clock),
             "id": c.agent_id,
             "dim": c.dim,
             "dt": c.dt,
             "params": {
                 **{k: getattr(p, k) for k in _PARAMS},
                 "rounds": p.rounds,
-                "safety": p.safety,
+                "safety": str(p.safety),
             },
             "senses": list(c.senses),
             "talks_to": list(c.talks_to),
@@ -387,7 +382,7 @@ def decode_config(data: bytes) -> AgentConfig:
     return decode_assignment(data)[0]
 
 
-def decode_assignment(data: bytes) -> tuple[AgentConfig, str]:
+def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
     """The configuration and the run's clock."""
     m = _unpack("config", data)
     clock = _get(m, "clock", _str)
@@ -400,7 +395,7 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, str]:
     params = ControlParams(
         **{k: _get(pm, k, _float) for k in _PARAMS},
         rounds=_get(pm, "rounds", _int),
-        safety=safety,
+        safety=Safety(safety),
     )
     reshapes = []
     for r in _get(m, "reshapes", _list):
@@ -427,14 +422,10 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, str]:
         path=_path_from(m.get("path"), "config.path"),
         reshapes=tuple(reshapes),
     )
-    if config.dim not in (2, 3):
-        raise DecodeError(f"config.dim: {config.dim} is not 2 or 3")
-    _same_dim(config.dim, (config.offset,), "config.offset")
-    _same_dim(config.dim, config.neighbour_offsets, "config.neighbour_offsets")
-    _same_dim(config.dim, _path_vectors(config.path), "config.path")
-    if len(config.neighbour_offsets) != len(config.senses):
-        raise DecodeError("config.neighbour_offsets: not one per agent in senses")
-    return config, clock
+    problem = config_problem(config)
+    if problem is not None:
+        raise DecodeError(f"config.{problem[0]}: {problem[1]}")
+    return config, Clock(clock)
 
 
 # -- world → all --------------------------------------------------------------------------------

@@ -19,7 +19,7 @@ from typing import Any
 
 import zenoh
 
-from shoal.bus.runtime import Arrival, Inbox
+from shoal.bus.runtime import Arrival, ArrivalKind, Inbox
 
 
 def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh.Publisher:
@@ -34,7 +34,11 @@ def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh
 
 def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
     def arrived(sample: zenoh.Sample) -> None:
-        inbox.put(Arrival("data", str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
+        inbox.put(
+            Arrival(
+                ArrivalKind.DATA, str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()
+            )
+        )
 
     return session.declare_subscriber(key, arrived)
 
@@ -55,7 +59,7 @@ def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
     and "down" when it vanishes (undeclared, session closed, or the process killed)."""
 
     def changed(sample: zenoh.Sample) -> None:
-        kind = "up" if sample.kind == zenoh.SampleKind.PUT else "down"
+        kind = ArrivalKind.UP if sample.kind == zenoh.SampleKind.PUT else ArrivalKind.DOWN
         inbox.put(Arrival(kind, str(sample.key_expr)))
 
     return session.liveliness().declare_subscriber(key, changed, history=True)

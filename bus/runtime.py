@@ -6,6 +6,7 @@ import queue
 import signal
 import sys
 from dataclasses import dataclass
+from enum import StrEnum
 from types import FrameType
 
 EXIT_GRACE_S = 10  # s a process may take to clean up after SIGTERM/SIGINT (docker stop's 10)
@@ -36,15 +37,20 @@ def announce_ready(what: str) -> None:
     print(f"ready {what}", flush=True)
 
 
+class ArrivalKind(StrEnum):
+    """What an :class:`Arrival` is."""
+
+    DATA = "data"  # a sample
+    UP = "up"  # a liveliness token appeared
+    DOWN = "down"  # a liveliness token vanished
+    REFUSED = "refused"  # the world turned down agent ``key``'s configuration (a lockstep rejoin)
+
+
 @dataclass(frozen=True, slots=True)
 class Arrival:
-    """Something a Zenoh callback handed to the process's main loop.
+    """Something a Zenoh callback handed to the process's main loop."""
 
-    kind: "data" (a sample), "up" / "down" (a liveliness token appeared / vanished), or
-    "refused" (the world turned down agent ``key``'s configuration query: a lockstep rejoin).
-    """
-
-    kind: str
+    kind: ArrivalKind
     key: str
     payload: bytes = b""
     time_ns: int = 0  # wall clock at arrival, ns since the epoch

@@ -8,28 +8,41 @@ frame, of length ``dim`` (2 or 3). Ticks are integers; simulated time is ``tick 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from enum import StrEnum
+from typing import Any
 
 Vector = tuple[float, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class ControlParams:
-    """Gains and thresholds of the paper's control laws, shared by every agent of a run.
+class Safety(StrEnum):
+    """How an agent's command is made safe (docs/safety.md)."""
+
+    FILTER = "filter"  # the nominal law, capped and projected by the safety filter (bus/safety.py)
+    PAPER = "paper"  # the paper's Algorithm 2 alone, unfiltered
+
+
+class Clock(StrEnum):
+    """How a run's ticks advance (docs/wire.md)."""
+
+    LOCKSTEP = "lockstep"  # the world waits for every agent's command: exact, as the reference
+    REALTIME = "realtime"  # ticks on the wall clock; a late command is held
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Gains:
+    """Gains and thresholds of the paper's control laws, as a scenario gives them and as every
+    agent of a run uses them (the two views below add what each side needs).
 
     alpha, beta : gains of law (1), 1/s and m/s; finite-time convergence needs |f| < beta.
-    safety : "filter" (the nominal law, capped at ``speed_limit`` and projected by the safety
-        filter, bus/safety.py) or "paper" (the paper's Algorithm 2 alone, unfiltered).
-    speed_limit : v_max, m/s; the nominal velocity is capped at it before filtering.
-    separation : 2R, m; the distance the safety filter keeps between any two agents.
     sensing_radius : d, m; an obstacle whose centre is within d of an agent is sensed.
     trigger_radius : d̄ < d, m; the collision-course flag (11) only fires within d̄.
     epsilon : ε, m; tolerance of the ray test in (11).
     safety_margin : ρ, m; clearance that the evasive offset and the passage bid keep.
     heading_tau : s; time constant of the heading filter that defines "the ray along v_i".
     sigma_max : largest contraction factor an agent will bid (an impassable gap bids this).
-    rounds : L_G, the diameter of the communication graph: rounds of Algorithm 1 per epoch.
     boundary_layer : m; 0 gives the paper's sign(e); φ > 0 uses sat(e/φ) instead.
+    safety : :class:`Safety`.
     """
 
     alpha: float
@@ -40,15 +53,32 @@ class ControlParams:
     safety_margin: float
     heading_tau: float
     sigma_max: float
-    rounds: int
     boundary_layer: float = 0.0
-    safety: str = "filter"
-    speed_limit: float = 1e9
-    separation: float = 0.4
+    safety: Safety = Safety.FILTER
 
     @property
     def filtered(self) -> bool:
-        return self.safety == "filter"
+        return self.safety == Safety.FILTER
+
+
+def gains_of(g: Gains) -> dict[str, Any]:
+    """The :class:`Gains` fields of ``g`` (of either view), to build the other view from."""
+    return {f.name: getattr(g, f.name) for f in fields(Gains)}
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ControlParams(Gains):
+    """The gains every agent of a run uses, with what the scenario derives resolved.
+
+    rounds : ticks per epoch of Algorithm 1: L_G, the diameter of the communication graph (in
+        realtime a multiple of it).
+    speed_limit : v_max, m/s; the nominal velocity is capped at it before filtering.
+    separation : 2R, m; the distance the safety filter keeps between any two agents.
+    """
+
+    rounds: int
+    speed_limit: float = 1e9
+    separation: float = 0.4
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +143,42 @@ class AgentConfig:
     @property
     def is_leader(self) -> bool:
         return self.path is not None
+
+
+def config_problem(c: AgentConfig) -> tuple[str, str] | None:
+    """What is wrong with an agent's configuration, as (field, message), or None.
+
+    The one check of an :class:`AgentConfig`: the codec runs it on a configuration from the
+    wire, the controller on whatever it is built with (a scenario the loader accepted makes
+    only configurations that pass)."""
+    if c.dim not in (2, 3):
+        return "dim", f"must be 2 or 3, got {c.dim}"
+    if not c.dt > 0:
+        return "dt", f"must be > 0 s, got {c.dt}"
+    if len(c.offset) != c.dim:
+        return "offset", f"has {len(c.offset)} coordinates, dim is {c.dim}"
+    if len(c.neighbour_offsets) != len(c.senses):
+        return "neighbour_offsets", "not one per agent in senses"
+    if any(len(o) != c.dim for o in c.neighbour_offsets):
+        return "neighbour_offsets", f"every offset needs {c.dim} coordinates"
+    path = c.path
+    points = () if path is None else (
+        path.points if isinstance(path, Waypoints) else (path.start, path.direction, path.normal)
+    )  # fmt: skip
+    if any(len(v) != c.dim for v in points):
+        return "path", f"every point and direction needs {c.dim} coordinates"
+    p = c.params
+    for name in ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max"):
+        if not getattr(p, name) > 0:
+            return f"params.{name}", f"must be > 0, got {getattr(p, name)}"
+    for name in ("speed_limit", "separation"):
+        if not getattr(p, name) > 0:
+            return f"params.{name}", f"must be > 0, got {getattr(p, name)}"
+    if p.safety not in tuple(Safety):
+        return "params.safety", f"must be filter or paper, got {p.safety!r}"
+    if p.rounds < 1:
+        return "params.rounds", f"must be ≥ 1 (the graph diameter), got {p.rounds}"
+    return None
 
 
 @dataclass(frozen=True, slots=True)

@@ -207,6 +207,14 @@ def wire_int(p: Pick) -> int:
     return p.between(*WIRE_INTS) if p.between(0, 1) else p.between(-3, 1000)
 
 
+def positive(p: Pick) -> float:
+    return abs(p.finite()) or 1.0
+
+
+_POSITIVE = {"alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max", "speed_limit",
+             "separation"}  # fmt: skip
+
+
 def vec(p: Pick, dim: int) -> tuple[float, ...]:
     return tuple(p.finite() for _ in range(dim))
 
@@ -242,10 +250,10 @@ def valid_object(p: Pick, kind: str) -> Any:
         config = AgentConfig(
             agent_id=wire_int(p),
             dim=dim,
-            dt=p.finite(),
+            dt=positive(p),  # a valid configuration (bus.types.config_problem): dt > 0, …
             params=ControlParams(
-                **{k: p.finite() for k in _PARAMS},
-                rounds=wire_int(p),
+                **{k: positive(p) if k in _POSITIVE else p.finite() for k in _PARAMS},
+                rounds=p.between(1, WIRE_INTS[1]),
                 safety=p.choice(list(codec.SAFETY_MODES)),
             ),
             senses=tuple(wire_int(p) for _ in range(m)),
@@ -605,7 +613,9 @@ _SEEDS: dict[str, Any] = {
     "state": AgentState(2, 5, (1.0, 2.0), False, 1.0, 1.0, 0.0),
     "cmd": (AgentState(2, 5, (1.0, 2.0), True, 1.0, 1.0, 0.0), Command(2, 5, (0.5, -0.5))),
     "config": (
-        AgentConfig(2, 2, 0.01, ControlParams(1.0, 2.0, 5.0, 4.0, 0.05, 0.2, 0.5, 8.0, 2, 0.0),
+        AgentConfig(2, 2, 0.01, ControlParams(alpha=1.0, beta=2.0, sensing_radius=5.0,
+                    trigger_radius=4.0, epsilon=0.05, safety_margin=0.2, heading_tau=0.5,
+                    sigma_max=8.0, rounds=2, boundary_layer=0.0),
                     (1, 3), (1, 3, 4), (-3.0, 3.0), ((0.0, 0.0), (-3.0, -3.0)), 8.5,
                     Sinusoid((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), 1.0, 2.0, 10.0),
                     (Reshape(100, 2.0, 0.5),)),
@@ -724,6 +734,9 @@ def _found() -> dict[str, tuple[str, bytes, str]]:
         "no waypoint": ("config", _with("config", path={"type": "waypoints", "points": [],
                                                         "speed": 1.0}), "no waypoint"),
         "offsets ≠ senses": ("config", _with("config", senses=[1]), "one per agent"),
+        # The wire now runs the controller's own check (bus.types.config_problem): a config
+        # the agent could not run with is refused where it arrives, not after.
+        "dt 0": ("config", _with("config", dt=0.0), "config.dt: must be > 0"),
         "nested summary value": ("summary", _with("summary", body={"a": [[1]]}), "not a scalar"),
         "bytes summary name": ("summary", _with("summary", body={b"a": 1}), "not a string"),
     }  # fmt: skip

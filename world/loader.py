@@ -21,7 +21,7 @@ import numpy as np
 import yaml
 
 from shoal.bus.geometry import dot, norm
-from shoal.bus.types import PathSpec, Reshape, Sinusoid, Vector, Waypoints
+from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoints
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
 from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario
@@ -237,13 +237,13 @@ def _list(value: Any, field: str) -> list[Any]:
 # -- sections -----------------------------------------------------------------------------------
 
 
-_SAFETY_MODES = ("filter", "paper")
+_SAFETY_MODES = tuple(Safety)
 
 
 def _control(value: Any) -> Control:
     data = dict(_mapping(value, "control"))
     _no_unknown(data, {*_CONTROL_DEFAULTS, "safety", "speed_limit", "separation"}, "control")
-    safety = data.pop("safety", "filter")
+    safety = data.pop("safety", Safety.FILTER)
     if safety not in _SAFETY_MODES:
         raise ScenarioError(
             "control.safety", f"must be one of {', '.join(_SAFETY_MODES)}, got {_shown(safety)}"
@@ -261,7 +261,7 @@ def _control(value: Any) -> Control:
         _non_negative(merged[key], f"control.{key}")
     c = Control(
         **{k: float(v) for k, v in merged.items()},
-        safety=safety,
+        safety=Safety(safety),
         speed_limit=speed_limit,
         separation=separation,
     )

@@ -14,6 +14,7 @@ import numpy as np
 
 from shoal.bus.geometry import FloatArray, norm, shaped
 from shoal.bus.path import path_position, peak_speed
+from shoal.bus.types import Clock
 from shoal.world.scenario import Scenario
 from shoal.world.theory import convergence_bound
 from shoal.world.trajectory import Trajectory
@@ -140,7 +141,7 @@ def assumption2_violations(scenario: Scenario, omega: np.ndarray[Any, Any]) -> i
     return count
 
 
-def summarize(scenario: Scenario, traj: Trajectory, *, clock: str = "lockstep") -> Summary:
+def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCKSTEP) -> Summary:
     """The figures reported after a run under ``clock`` (which sets Algorithm 1's epochs)."""
     errors = formation_errors(scenario, traj)
     worst = errors.max(axis=1)
@@ -193,7 +194,7 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: str = "lockstep") 
         sigma_disagreement=int(np.any(traj.sigma != traj.sigma[:, :1], axis=1).sum()),
         omega_episodes=onsets(traj.omega),
         assumption2_violations=assumption2_violations(scenario, traj.omega),
-        safety=scenario.control.safety,
+        safety=str(scenario.control.safety),
         filter_activity=float(traj.filtered.mean()) if traj.filtered.size else 0.0,
         stalls=sum(h > STALL_TIME for h in held),
         longest_stall=max(held, default=0.0),

@@ -25,8 +25,8 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.links import publisher, still_present, subscribe, watch_presence
-from shoal.bus.runtime import Arrival, Inbox, warn
-from shoal.bus.types import AgentState, Command, Event, TickRecord
+from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
+from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
 from shoal.world.kinematics import actuate, integrate, sense_all
 from shoal.world.metrics import summarize
 from shoal.world.scenario import Scenario
@@ -41,7 +41,7 @@ class WorldAbort(RuntimeError):
 class WorldOptions:
     run: str
     expect: tuple[str, ...] = ()  # other processes (logger, monitor) to wait for
-    clock: str = "lockstep"  # or "realtime"
+    clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
     stale_after: int = 5  # realtime: a command older than this many ticks is not applied
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
@@ -75,12 +75,12 @@ class World:
                 if i is None or i not in configs:
                     return
                 left = self.departed.get(i)
-                if left is not None and options.clock == "lockstep":
+                if left is not None and options.clock == Clock.LOCKSTEP:
                     query.reply_err(
                         f"agent {i} left at tick {left}; a lockstep run does not take agents "
                         "back (its neighbours no longer wait for it)"
                     )
-                    self.inbox.put(Arrival("refused", self.keys.alive_agent(i)))
+                    self.inbox.put(Arrival(ArrivalKind.REFUSED, self.keys.alive_agent(i)))
                     return
                 query.reply(self.keys.config(i), configs[i])
 
@@ -92,7 +92,7 @@ class World:
             subscribe(session, k.commands, self.inbox),
             watch_presence(session, k.alive_everyone, self.inbox),
         ]
-        lossy = options.clock == "realtime"  # bus/links.py: one cut agent must not stall all
+        lossy = options.clock == Clock.REALTIME  # bus/links.py: one cut agent must not stall all
         self.sensing_out = {i: publisher(session, k.sensing(i), lossy=lossy) for i in self.alive}
         self.tick_out = publisher(session, k.tick)
         self.event_out = publisher(session, k.event)
@@ -137,7 +137,9 @@ class World:
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
         latest = self.latest
-        clock = _Clock(realtime=self.options.clock == "realtime", period=s.dt / self.options.speed)
+        clock = _Clock(
+            realtime=self.options.clock == Clock.REALTIME, period=s.dt / self.options.speed
+        )
         for k in range(s.steps):
             clock.sent(k)
             sensings = sense_all(k, positions, centres, radii, s.control.sensing_radius)
@@ -272,7 +274,7 @@ class World:
         if self.scenario.agent_config(i).is_leader:  # the one agent with the path
             self.aborted = f"the leader (agent {i}) is gone at tick {tick}"
             self._event(tick, 4, i, f"{self.aborted}; every agent held still and the run ends here")
-        elif self.options.clock == "realtime":
+        elif self.options.clock == Clock.REALTIME:
             self._event(tick, 3, i, f"agent {i} gone at tick {tick}; held still until it rejoins")
         else:
             self._event(tick, 3, i, f"agent {i} gone at tick {tick}; held still from now on")

@@ -13,7 +13,16 @@ from functools import cached_property
 import numpy as np
 
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import AgentConfig, ControlParams, PathSpec, Reshape, Vector
+from shoal.bus.types import (
+    AgentConfig,
+    Clock,
+    ControlParams,
+    Gains,
+    PathSpec,
+    Reshape,
+    Vector,
+    gains_of,
+)
 from shoal.world.graph import adjacency, communication_graph, diameter
 
 
@@ -40,22 +49,17 @@ class AgentSpec:
 REALTIME_TICKS_PER_ROUND = 4
 
 
-@dataclass(frozen=True, slots=True)
-class Control:
-    """The gains and thresholds of the scenario (see :class:`shoal.bus.types.ControlParams`)."""
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Control(Gains):
+    """The control section of a scenario: the :class:`~shoal.bus.types.Gains` and two values
+    the scenario may leave to be derived (:meth:`Scenario.params` resolves them).
 
-    alpha: float
-    beta: float
-    sensing_radius: float
-    trigger_radius: float
-    epsilon: float
-    safety_margin: float
-    heading_tau: float
-    sigma_max: float
-    boundary_layer: float
-    safety: str = "filter"  # or "paper": Algorithm 2 alone, unfiltered
-    speed_limit: float | None = None  # m/s; None: the largest the safety theorem admits
-    separation: float | None = None  # m; None: 2ρ (each agent keeps ρ from the bisector)
+    speed_limit : m/s; None: the largest the safety theorem admits (:attr:`Scenario.speed_limit`).
+    separation : m; None: 2ρ (each agent keeps ρ from the bisector).
+    """
+
+    speed_limit: float | None = None
+    separation: float | None = None
 
 
 @dataclass(frozen=True)
@@ -151,31 +155,21 @@ class Scenario:
         c = self.control
         return self.largest_step / self.dt if c.speed_limit is None else c.speed_limit
 
-    def epoch_ticks(self, clock: str = "lockstep") -> int:
+    def epoch_ticks(self, clock: Clock = Clock.LOCKSTEP) -> int:
         """Ticks per epoch of Algorithm 1 under ``clock``: L_G in lockstep; in realtime
         :data:`REALTIME_TICKS_PER_ROUND` times that, because an agent acts on neighbours'
         states that are often a tick or more old, so a round can take that many ticks."""
-        return self.rounds * (REALTIME_TICKS_PER_ROUND if clock == "realtime" else 1)
+        return self.rounds * (REALTIME_TICKS_PER_ROUND if clock == Clock.REALTIME else 1)
 
-    def params(self, clock: str = "lockstep") -> ControlParams:
-        c = self.control
+    def params(self, clock: Clock = Clock.LOCKSTEP) -> ControlParams:
         return ControlParams(
-            alpha=c.alpha,
-            beta=c.beta,
-            sensing_radius=c.sensing_radius,
-            trigger_radius=c.trigger_radius,
-            epsilon=c.epsilon,
-            safety_margin=c.safety_margin,
-            heading_tau=c.heading_tau,
-            sigma_max=c.sigma_max,
+            **gains_of(self.control),
             rounds=self.epoch_ticks(clock),
-            boundary_layer=c.boundary_layer,
-            safety=c.safety,
             speed_limit=self.speed_limit,
             separation=self.separation,
         )
 
-    def agent_config(self, agent_id: int, clock: str = "lockstep") -> AgentConfig:
+    def agent_config(self, agent_id: int, clock: Clock = Clock.LOCKSTEP) -> AgentConfig:
         """The configuration agent ``agent_id`` runs with under ``clock`` (what the world
         serves it)."""
         a = self.adjacency

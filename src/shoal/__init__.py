@@ -84,6 +84,7 @@ def run(
     is ``lockstep`` (the reference's result, bit for bit) or ``realtime``. ``out`` is never
     replaced unless ``overwrite``. Raises ``FileExistsError``, or ``RuntimeError`` if a process
     of the swarm fails or one dies during the run."""
+    from shoal.bus.types import Clock
     from shoal.tools.procs.launch import RunPlan, launch
     from shoal.tools.procs.swarm import ChildFailed
     from shoal.world.loader import builtin_names
@@ -102,7 +103,7 @@ def run(
         steps=loaded.steps,
         out=log,
         run_id=uuid.uuid4().hex[:8],
-        clock=clock,
+        clock=Clock(clock),
         start_timeout=start_timeout,
         overwrite=overwrite,
     )

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from shoal.bus.types import Clock
 from shoal.tools.log.reader import read_trajectory
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.world.loader import load_scenario
@@ -89,7 +90,7 @@ def measure(
         steps=scn.steps,
         out=out,
         run_id=f"drops-{uuid.uuid4().hex[:8]}",
-        clock="realtime",
+        clock=Clock.REALTIME,
         speed=speed,
         drop_rate=rate,
         drop_seed=seed,

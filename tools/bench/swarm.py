@@ -20,6 +20,7 @@ from typing import Any
 
 import yaml
 
+from shoal.bus.types import Clock
 from shoal.tools.bench.formations import bench_scenario
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.launch import RunPlan, RunResult, free_port, launch
@@ -94,7 +95,7 @@ def measure_run(n: int, ticks: int, workdir: Path, *, clock: str = "lockstep") -
         steps=ticks,
         out=workdir / f"bench-{n}-{clock}.mcap",
         run_id=f"bench-{uuid.uuid4().hex[:8]}",
-        clock=clock,
+        clock=Clock(clock),
         measure_cpu=True,
     )
     return launch(plan)

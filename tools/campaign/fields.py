@@ -20,6 +20,7 @@ world/assumptions.py on its own.
 from __future__ import annotations
 
 import dataclasses
+import enum
 import itertools
 import math
 import warnings
@@ -349,7 +350,7 @@ def _skeleton(
         "agent_radius": base.agent_radius,
         "tolerance_factor": base.tolerance_factor,
         "control": {
-            **{f.name: getattr(c, f.name) for f in dataclasses.fields(c)},
+            **{f.name: _plain(getattr(c, f.name)) for f in dataclasses.fields(c)},
             **({} if opts.sigma_max is None else {"sigma_max": opts.sigma_max}),
             **({} if opts.safety is None else {"safety": opts.safety}),
         },
@@ -363,6 +364,11 @@ def _skeleton(
             if r.tick * base.dt <= moving
         ],
     }
+
+
+def _plain(value: Any) -> Any:
+    """A value YAML can write: an enum (``control.safety``) as its string."""
+    return str(value) if isinstance(value, enum.Enum) else value
 
 
 def _path_data(path: PathSpec) -> dict[str, Any]:
@@ -380,7 +386,7 @@ def _short_sight(s: Scenario, rng: np.random.Generator) -> dict[str, float]:
     short = dataclasses.replace(
         c, trigger_radius=trigger, sensing_radius=trigger + c.sensing_radius - c.trigger_radius
     )
-    return {f.name: getattr(short, f.name) for f in dataclasses.fields(short)}
+    return {f.name: _plain(getattr(short, f.name)) for f in dataclasses.fields(short)}
 
 
 class _Placer:

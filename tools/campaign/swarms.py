@@ -12,6 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from shoal.bus.types import Clock
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.log.reader import read_trajectory
 from shoal.tools.procs.launch import RunPlan, launch
@@ -45,7 +46,7 @@ def run_swarms(
                     steps=field.steps,
                     out=out,
                     run_id=uuid.uuid4().hex[:8],
-                    clock=clock,
+                    clock=Clock(clock),
                     speed=speed,
                 )
             )

@@ -14,6 +14,7 @@ import click
 from shoal.bus.errors import WireError
 from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
+from shoal.bus.types import Clock
 from shoal.tools.commands.options import check_run_id, drop_options, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
@@ -149,7 +150,7 @@ def run(
         steps=scn.steps,
         out=out or Path("runs") / f"{scn.name}-{run_id}.mcap",
         run_id=run_id,
-        clock=mode,
+        clock=Clock(mode),
         speed=speed,
         connect=connect,
         start_timeout=start_timeout,

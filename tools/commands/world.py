@@ -9,6 +9,7 @@ import click
 
 from shoal.bus.acl import WORLD
 from shoal.bus.runtime import exit_on_signals
+from shoal.bus.types import Clock
 from shoal.tools.commands.options import bus_options, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.session import client_config, open_session
@@ -54,7 +55,7 @@ def world(
     exit_on_signals()
     scn = load_for_cli(scenario)
     options = WorldOptions(
-        run=run_id, expect=expect, clock=clock, speed=speed, start_timeout=start_timeout
+        run=run_id, expect=expect, clock=Clock(clock), speed=speed, start_timeout=start_timeout
     )
     conf = client_config(connect, zenoh_config, multicast, secure, WORLD)
     with open_session(conf, "world") as session:

@@ -22,6 +22,7 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.runtime import Inbox, warn
+from shoal.bus.types import Clock
 from shoal.tools.deploy.certs import make_material
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
@@ -46,7 +47,7 @@ class RunPlan:
     steps: int
     out: Path
     run_id: str
-    clock: str = "lockstep"
+    clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0
     connect: str | None = None  # a router's endpoint; None starts one
     start_timeout: float = 60.0

@@ -24,6 +24,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from types import TracebackType
 from typing import IO
@@ -65,7 +66,21 @@ def name_process(name: str) -> None:
 
 
 # Stop order: each group gets SIGTERM, then this many seconds, then SIGKILL.
-STOP_ORDER = (({"agent", "world"}, 5.0), ({"logger"}, 10.0), ({"router", "zygote"}, 5.0))
+class Role(StrEnum):
+    """What a child process of a swarm is."""
+
+    AGENT = "agent"
+    WORLD = "world"
+    LOGGER = "logger"
+    ROUTER = "router"
+    ZYGOTE = "zygote"  # the agents' fork server
+
+
+STOP_ORDER = (
+    ({Role.AGENT, Role.WORLD}, 5.0),
+    ({Role.LOGGER}, 10.0),
+    ({Role.ROUTER, Role.ZYGOTE}, 5.0),
+)
 # What a supervisor (shoal run, shoal bench) may take to stop after SIGTERM/SIGINT before its
 # own watchdog ends it (bus/runtime.py, exit_on_signals): every group's grace, and a margin.
 SUPERVISOR_GRACE_S = int(sum(grace for _, grace in STOP_ORDER)) + 10
@@ -80,7 +95,7 @@ class Child:
     name: str
     popen: subprocess.Popen[bytes] | Forked
     log: Path
-    role: str  # "agent", "world", "logger", "router", "zygote" (the agents' fork server)
+    role: Role
     done: bool = False  # expected to have exited
     reader: LineReader | None = None  # its ready pipe's lines, once waited on
     cpu_at_exit: float | None = None  # user + system seconds, taken just before it was reaped
@@ -151,7 +166,7 @@ class Swarm:
     def spawn(
         self,
         name: str,
-        role: str,
+        role: Role | str,
         args: list[str],
         *,
         ready_pipe: bool = False,
@@ -172,7 +187,7 @@ class Swarm:
             stdout = subprocess.PIPE if ready_pipe else subprocess.DEVNULL
             command = [*prefix, sys.executable, "-m", "shoal.tools", *args]
             popen = _start(command, log, stdin=subprocess.DEVNULL, stdout=stdout)
-        child = Child(name, popen, log, role)
+        child = Child(name, popen, log, Role(role))
         self.children.append(child)
         return child
 
@@ -186,7 +201,7 @@ class Swarm:
             label = [] if at is None else args[at : at + 2]
             command = [sys.executable, "-m", "shoal.tools.procs.zygote", *label]
             popen = _start(command, log, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
-            self.children.append(Child("agent fork server", popen, log, "zygote"))
+            self.children.append(Child("agent fork server", popen, log, Role.ZYGOTE))
             self.zygote = Zygote(popen, str(log))
         return self.zygote
 
