@@ -17,6 +17,7 @@ copes with lost messages.
 
 from __future__ import annotations
 
+import resource
 import time
 from collections import defaultdict
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.links import publisher, still_present, subscribe, watch_presence
+from shoal.bus.report import report_body
 from shoal.bus.runtime import Arrival, Inbox, warn
 from shoal.bus.types import AgentConfig, AgentState, Sensing
 
@@ -105,6 +107,7 @@ class AgentNode:
         self.latest: dict[int, AgentState] = {}  # realtime: the freshest state of each neighbour
         self.pending: tuple[Sensing, AgentState] | None = None
         self.tick = -1  # the last tick sensed
+        self._held.append(session.declare_queryable(k.report(me), self._answer_report))
         self.token = session.liveliness().declare_token(k.alive_agent(me))
 
     def _await_world(self) -> None:
@@ -173,6 +176,36 @@ class AgentNode:
             self.latest.pop(j, None)
         elif self.clock == "realtime":
             self.gone.discard(j)
+
+    def report(self) -> dict[str, int | None]:
+        """The figures the world asks for at the end of the run (bus/report.py)."""
+        d, a = self.dropper, self.ages
+        return report_body(
+            {
+                "last_tick": self.tick,
+                "bad_messages": self.dropped,
+                "states_heard": d.offered,
+                "injected_drops": d.dropped,
+                "age_p50": a.quantile(0.5),
+                "age_p99": a.quantile(0.99),
+                "age_max": max(a.histogram, default=None),
+                "stale_edges": a.stale_edges,
+                "peak_rss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+            }
+        )
+
+    def _answer_report(self, query: zenoh.Query) -> None:  # a Zenoh thread: reads state only
+        with query:
+            for _ in range(3):  # the main loop may be adding an age to the histogram right now
+                try:
+                    figures = self.report()
+                    break
+                except RuntimeError:
+                    continue
+            else:
+                return
+            body = codec.encode_document("report", figures)
+            query.reply(self.keys.report(self.options.agent_id), body)
 
     def stats(self) -> str:
         """One line for stderr at exit: neighbour states heard and dropped, and their ages."""

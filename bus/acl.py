@@ -50,9 +50,10 @@ class Role:
 def roles(run: str, agents: int) -> list[Role]:
     """Every identity of run ``run`` with agents 1..``agents`` and what it needs, no more.
 
-    The world alone publishes sensing, ticks, events, the scenario and the summary, and serves
-    the configurations; agent i publishes only its own state and command and fetches only its
-    own configuration; the logger and the monitor only listen.
+    The world alone publishes sensing, ticks, events, the scenario and the summary, serves the
+    configurations and asks for the agents' reports; agent i publishes only its own state and
+    command, fetches only its own configuration and answers only for its own report; the logger
+    and the monitor only listen.
     """
     k = Keys(run)
     world = Role(
@@ -63,6 +64,7 @@ def roles(run: str, agents: int) -> list[Role]:
         subscribes=(k.commands,),
         watches=(k.alive_everyone,),  # also its check for a second world on the run
         serves=(k.configs,),
+        queries=(k.reports,),  # at the end of the run: every agent's figures (bus/report.py)
     )
     logger = Role(
         LOGGER,
@@ -85,6 +87,7 @@ def roles(run: str, agents: int) -> list[Role]:
             subscribes=(k.sensing(i), k.states),
             watches=(k.alive_world, k.alive_agents),
             queries=(k.config(i),),
+            serves=(k.report(i),),
         )
         for i in range(1, agents + 1)
     ]

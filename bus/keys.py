@@ -49,6 +49,14 @@ class Keys:
         """Agent → world: the velocity for the tick, with what the agent announced."""
         return f"{self.root}/agent/{agent}/cmd"
 
+    def report(self, agent: int) -> str:
+        """Agent ``agent``'s queryable: its figures at the end of the run (bus/report.py)."""
+        return f"{self.root}/agent/{agent}/report"
+
+    @property
+    def reports(self) -> str:
+        return f"{self.root}/agent/*/report"
+
     @property
     def commands(self) -> str:
         return f"{self.root}/agent/*/cmd"

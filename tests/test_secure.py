@@ -40,6 +40,7 @@ from conftest import PYTHON, Watcher, json_of, unique
 from shoal.bus import codec
 from shoal.bus.acl import LOGGER, MONITOR, WORLD, agent_name
 from shoal.bus.keys import Keys
+from shoal.bus.report import reports_in
 from shoal.bus.secure import Identity, Material
 from shoal.bus.types import AgentState, Command, Event, Sensing
 from shoal.bus.zconfig import zenoh_config
@@ -347,6 +348,10 @@ def test_shoal_run_secure_is_exact_and_leaves_no_material(tmp_path: Path) -> Non
     got = json_of(proc)
     assert got["secure"] is True and got["collisions"] == 0
     scn = load_scenario(scenario)
+    # Every agent answered the world's report query through the run's ACL (bus/report.py).
+    reports = reports_in(got)
+    assert sorted(reports) == list(range(1, scn.n + 1))
+    assert all(r["last_tick"] == scn.steps - 1 and r["peak_rss_kb"] > 0 for r in reports.values())
     assert read_trajectory(out, dt=scn.dt).equals(simulate(scn))
     verdict = verify(out)
     assert verdict.ok and verdict.recorded == scn.steps

@@ -25,6 +25,7 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.links import publisher, still_present, subscribe, watch_presence
+from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
 from shoal.world.kinematics import actuate, integrate, sense_all
@@ -181,6 +182,7 @@ class World:
             "dropped_messages": self.dropped,
             "actuator_corrections": corrected,
             "aborted": self.aborted,
+            **self._agent_reports(),
         }
         if self.aborted is None:
             self._event(s.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped")
@@ -190,6 +192,28 @@ class World:
             self._event(end, 4, 0, f"{why}; {self.dropped} bad messages dropped")
         self.summary_out.put(codec.encode_document("summary", summary))
         return summary
+
+    def _agent_reports(self) -> dict[str, Any]:
+        """Every live agent's report (bus/report.py), as summary entries; a bad one is counted
+        and dropped like any bad message."""
+        out: dict[str, Any] = {}
+        # One query per agent, all in flight at once: under the run's ACL (bus/acl.py) agent i
+        # is asked only on its own key, so a wildcard query would reach nobody.
+        asked = {
+            i: self.session.get(self.keys.report(i), timeout=REPORT_TIMEOUT_S)
+            for i in sorted(self.alive)
+        }
+        for i, replies in asked.items():
+            for reply in replies:
+                if reply.ok is None or agent_of(str(reply.ok.key_expr)) != i:
+                    continue
+                try:
+                    body = codec.decode_document("report", reply.ok.payload.to_bytes())
+                except DecodeError as exc:
+                    self._drop(f"{reply.ok.key_expr}: {exc}")
+                    continue
+                out.update(summary_entries(i, body))
+        return out
 
     def _collect(self, k: int, clock: _Clock) -> None:
         """Take commands into ``self.latest`` until tick k may end: in lockstep once every live

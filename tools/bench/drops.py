@@ -16,7 +16,6 @@ bound on a shorter run of the same function.
 
 from __future__ import annotations
 
-import re
 import tempfile
 import uuid
 from collections.abc import Callable, Sequence
@@ -31,10 +30,6 @@ from shoal.tools.log.reader import read_trajectory
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.world.loader import load_scenario
 from shoal.world.metrics import formation_errors
-
-_STATS = re.compile(
-    r"injected drops (\d+) of (\d+), age p50 (\S+) p99 (\S+) max (\S+) ticks, stale edges (\d+)"
-)
 
 
 @dataclass(frozen=True)
@@ -68,10 +63,6 @@ def steady_errors(scenario: str | Path, log: Path, settle: float) -> Any:
     return worst[round(settle / scn.dt) :]
 
 
-def _int(text: str) -> int | None:
-    return None if text == "None" else int(text)
-
-
 def measure(
     scenario: str,
     rate: float,
@@ -97,9 +88,9 @@ def measure(
     )
     result = launch(plan)
     errors = steady_errors(scenario, out, settle)
-    stats = [m.groups() for line in result.agent_stats if (m := _STATS.search(line))]
-    p99s = [a for s in stats if (a := _int(s[3])) is not None]
-    maxes = [a for s in stats if (a := _int(s[4])) is not None]
+    stats = list(result.agent_reports.values())  # each agent's figures (bus/report.py)
+    p99s = [a for s in stats if (a := s.get("age_p99")) is not None]
+    maxes = [a for s in stats if (a := s.get("age_max")) is not None]
     summary = result.summary
     return DropRow(
         rate=rate,
@@ -107,11 +98,11 @@ def measure(
         p95=round(float(np.percentile(errors, 95)), 4),
         max=round(float(errors.max()), 4),
         final=round(float(summary["final_formation_error"]), 4),
-        injected=sum(int(s[0]) for s in stats),
-        offered=sum(int(s[1]) for s in stats),
+        injected=sum(s.get("injected_drops") or 0 for s in stats),
+        offered=sum(s.get("states_heard") or 0 for s in stats),
         age_p99=max(p99s, default=None),
         age_max=max(maxes, default=None),
-        stale_edges=sum(int(s[5]) for s in stats),
+        stale_edges=sum(s.get("stale_edges") or 0 for s in stats),
         missed_deadlines=int(summary["missed_deadlines"]),
         stale_holds=int(summary["stale_holds"]),
         ticks_per_s=float(summary["ticks_per_s"]),

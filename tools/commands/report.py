@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from shoal.bus.report import reports_in
+
 
 def _fmt(value: Any, unit: str = "", digits: int = 3) -> str:
     if value is None:
@@ -60,6 +62,18 @@ def render_summary(summary: dict[str, Any]) -> str:
                 f"command latency p50 {_fmt(summary.get('latency_p50_ms'), ' ms', 2)} / "
                 f"p99 {_fmt(summary.get('latency_p99_ms'), ' ms', 2)}, "
                 f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
+            )
+        )
+    reports = reports_in(summary)
+    if reports:
+        rss = [r["peak_rss_kb"] for r in reports.values() if r.get("peak_rss_kb")]
+        bad = sum(r.get("bad_messages") or 0 for r in reports.values())
+        rows.append(
+            (
+                "agents' reports",
+                f"{len(reports)} of {summary.get('agents', '?')}: "
+                f"peak memory max {_fmt(max(rss) / 1024 if rss else None, ' MB', 1)}, "
+                f"{bad} bad messages dropped",
             )
         )
     if summary.get("aborted"):

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import uuid
-from collections.abc import Sequence
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -24,16 +24,13 @@ from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from shoal.world.loader import builtin_names
 
-_DROPS = re.compile(r"injected drops (\d+) of (\d+)")
 
-
-def injected_drops(stats: Sequence[str]) -> dict[str, int]:
-    """The fault injection's totals over the agents' stats lines (agent/process.py, stats)."""
-    found = [m for line in stats if (m := _DROPS.search(line))]
+def injected_drops(reports: Mapping[int, Mapping[str, Any]]) -> dict[str, int]:
+    """The fault injection's totals over the agents' reports (bus/report.py)."""
     return {
-        "dropped": sum(int(m.group(1)) for m in found),
-        "offered": sum(int(m.group(2)) for m in found),
-        "agents": len(found),
+        "dropped": sum(r.get("injected_drops") or 0 for r in reports.values()),
+        "offered": sum(r.get("states_heard") or 0 for r in reports.values()),
+        "agents": len(reports),
     }
 
 
@@ -184,7 +181,7 @@ def run(
         raise SystemExit(exc.code) from None
     views = export_beside(plan.out, progress=not as_json) if foxglove else None
     summary = json_safe(result.summary)
-    drops = injected_drops(result.agent_stats) if drop_rate > 0 else None
+    drops = injected_drops(result.agent_reports) if drop_rate > 0 else None
     if as_json:
         extra = {
             "injected_drops": drops,

@@ -8,7 +8,6 @@ for every agent's, the logger's and this monitor's liveliness tokens before its 
 from __future__ import annotations
 
 import os
-import re
 import socket
 import sys
 import time
@@ -21,6 +20,7 @@ from shoal.bus.acl import MONITOR
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
+from shoal.bus.report import reports_in
 from shoal.bus.runtime import Inbox, warn
 from shoal.bus.types import Clock
 from shoal.tools.deploy.certs import make_material
@@ -28,9 +28,6 @@ from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
 from shoal.tools.progress import progress_bar
-
-_PEAK_RSS = re.compile(r"peak_rss_kb (\d+)")
-_STATS = re.compile(r"^agent \d+: neighbour states heard .*$", re.MULTILINE)
 
 
 def free_port() -> int:
@@ -67,9 +64,9 @@ class RunResult:
     summary: dict[str, Any]  # the world's summary (metrics and timing)
     startup_s: float  # from launch until every agent's token was up
     wall_s: float
-    agent_peak_rss_mb: list[float]  # one per agent process that reported it
+    agent_peak_rss_mb: list[float]  # one per agent that reported it
     lost: tuple[str, ...] = ()  # agents that died during the run, e.g. "agent 3 (exit code -9)"
-    agent_stats: tuple[str, ...] = ()  # each agent's stats line (agent/process.py, stats())
+    agent_reports: dict[int, dict[str, Any]] = field(default_factory=dict)  # bus/report.py
     processes: int = 0  # OS processes started for the run (agents' fork server included)
     cpu_us_per_tick: dict[str, float] = field(default_factory=dict)  # with plan.measure_cpu
 
@@ -117,20 +114,12 @@ def launch(plan: RunPlan) -> RunResult:
         summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost, window)
         swarm.expect_exit({"world", "agent"}, timeout=10.0)
         swarm.expect_exit({"logger"}, timeout=10.0)
-        rss = [
-            int(m.group(1)) / 1024
-            for c in swarm.children
-            if c.role == "agent" and (m := _PEAK_RSS.search(c.tail(3)))
-        ]
-        stats = tuple(
-            m.group(0)
-            for c in swarm.children
-            if c.role == "agent" and (m := _STATS.search(c.tail(4)))
-        )
+        reports = reports_in(summary)  # each agent's own figures, via the world (bus/report.py)
+        rss = [r["peak_rss_kb"] / 1024 for r in reports.values() if r.get("peak_rss_kb")]
         wall = time.monotonic() - started
         processes = len(swarm.children)
         cpu = window.figures if window is not None else {}
-        return RunResult(summary, startup, wall, rss, tuple(lost), stats, processes, cpu)
+        return RunResult(summary, startup, wall, rss, tuple(lost), reports, processes, cpu)
 
 
 def _probe(endpoint: str, plan: RunPlan) -> None:

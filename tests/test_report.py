@@ -1,0 +1,37 @@
+"""An agent's end-of-run report (bus/report.py): what the world folds into the summary and what
+the supervisor reads back, with anything from the wire that is not a figure left out."""
+
+from __future__ import annotations
+
+from shoal.agent.delivery import AgeStats, Dropper
+from shoal.bus import codec
+from shoal.bus.report import FIGURES, report_body, reports_in, summary_entries
+
+
+def test_a_report_round_trips_through_the_summary() -> None:
+    body = report_body({"last_tick": 99, "bad_messages": 2, "peak_rss_kb": 40_000})
+    assert set(body) == set(FIGURES) and body["age_p99"] is None
+    wire = codec.decode_document("report", codec.encode_document("report", body))
+    summary = {"collisions": 0, **summary_entries(3, wire), **summary_entries(1, wire)}
+    got = reports_in(summary)
+    assert list(got) == [1, 3]
+    assert got[3] == body
+
+
+def test_what_is_not_a_figure_is_left_out() -> None:
+    entries = summary_entries(2, {"last_tick": 5, "bad_messages": "many", "peak_rss_kb": 1.5,
+                                  "age_p50": True, "secret": 7})  # fmt: skip
+    assert entries["agent_2.last_tick"] == 5
+    assert "agent_2.bad_messages" not in entries and "agent_2.peak_rss_kb" not in entries
+    assert "agent_2.age_p50" not in entries and "agent_2.secret" not in entries
+    assert reports_in({"agent_x.last_tick": 1, "agent_2.nonsense": 1}) == {}
+
+
+def test_an_agents_figures_are_its_own_counters() -> None:
+    d, a = Dropper(0.5, 1, 2), AgeStats()
+    for _ in range(200):
+        d.drop()
+    body = report_body({"states_heard": d.offered, "injected_drops": d.dropped,
+                        "age_p99": a.quantile(0.99)})  # fmt: skip
+    assert body["states_heard"] == 200 and 60 < (body["injected_drops"] or 0) < 140
+    assert body["age_p99"] is None  # no state used yet
