@@ -1,11 +1,15 @@
-"""An agent's end-of-run report (bus/report.py): what the world folds into the summary and what
-the supervisor reads back, with anything from the wire that is not a figure left out."""
+"""What a run's processes hand each other once: an agent's end-of-run report (bus/report.py),
+which the world folds into the summary, and the scenario the supervisor hands the world."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 from shoal.agent.delivery import AgeStats, Dropper
 from shoal.bus import codec
 from shoal.bus.report import FIGURES, report_body, reports_in, summary_entries
+from shoal.tools.procs.launch import _hand_over
+from shoal.world.loader import load_scenario
 
 
 def test_a_report_round_trips_through_the_summary() -> None:
@@ -35,3 +39,26 @@ def test_an_agents_figures_are_its_own_counters() -> None:
                         "age_p99": a.quantile(0.99)})  # fmt: skip
     assert body["states_heard"] == 200 and 60 < (body["injected_drops"] or 0) < 140
     assert body["age_p99"] is None  # no state used yet
+
+
+def test_the_world_is_handed_the_text_the_supervisor_parsed_under_the_same_name(
+    tmp_path: Path,
+) -> None:
+    """Issue 13: the scenario was parsed by `shoal run` and again, from its file, by the world
+    (the file may change in between). The world now gets a copy of the parsed text, named so
+    that it loads under the same name — even a name that is no file name."""
+    for stem, text in (
+        ("mine", load_scenario("sinusoid").source.replace("name: sinusoid\n", "")),
+        ("my run (2)", load_scenario("passage").source.replace("name: passage\n", "")),
+        ("named", load_scenario("obstacles").source),
+    ):
+        original = tmp_path / f"{stem}.yaml"
+        original.write_text(text)
+        parsed = load_scenario(original)
+        folder = tmp_path / f"run-{len(list(tmp_path.iterdir()))}"
+        folder.mkdir()
+        handed = _hand_over(parsed, folder)
+        original.write_text("changed: after it was parsed\n")  # the world never sees this
+        again = load_scenario(handed)
+        assert again.name == parsed.name and again.steps == parsed.steps
+        assert again.agents == parsed.agents and again.obstacles == parsed.obstacles

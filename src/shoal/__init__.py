@@ -87,7 +87,6 @@ def run(
     from shoal.bus.types import Clock
     from shoal.tools.procs.launch import RunPlan, launch
     from shoal.tools.procs.swarm import ChildFailed
-    from shoal.world.loader import builtin_names
 
     if clock not in ("lockstep", "realtime"):
         raise ValueError(f"clock: must be lockstep or realtime, got {clock!r}")
@@ -98,9 +97,7 @@ def run(
         raise FileExistsError(f"{log} exists; pass overwrite=True to replace it")
     log.parent.mkdir(parents=True, exist_ok=True)
     plan = RunPlan(
-        scenario=name if name in builtin_names() else str(Path(name).resolve()),
-        agents=loaded.n,
-        steps=loaded.steps,
+        scenario=loaded,
         out=log,
         run_id=uuid.uuid4().hex[:8],
         clock=Clock(clock),

@@ -76,9 +76,7 @@ def measure(
     scn = load_scenario(scenario)
     out = workdir / f"drops-{rate:g}-{uuid.uuid4().hex[:6]}.mcap"
     plan = RunPlan(
-        scenario=scenario,
-        agents=scn.n,
-        steps=scn.steps,
+        scenario=scn,
         out=out,
         run_id=f"drops-{uuid.uuid4().hex[:8]}",
         clock=Clock.REALTIME,

@@ -25,6 +25,7 @@ from shoal.tools.bench.formations import bench_scenario
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.launch import RunPlan, RunResult, free_port, launch
 from shoal.tools.procs.swarm import Swarm
+from shoal.world.loader import load_scenario
 
 
 @dataclass(frozen=True)
@@ -90,9 +91,7 @@ def measure_run(n: int, ticks: int, workdir: Path, *, clock: str = "lockstep") -
     path = workdir / f"bench-{n}.yaml"
     path.write_text(yaml.safe_dump(bench_scenario(n, ticks)))
     plan = RunPlan(
-        scenario=str(path),
-        agents=n,
-        steps=ticks,
+        scenario=load_scenario(path),
         out=workdir / f"bench-{n}-{clock}.mcap",
         run_id=f"bench-{uuid.uuid4().hex[:8]}",
         clock=Clock(clock),

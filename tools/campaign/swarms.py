@@ -41,9 +41,7 @@ def run_swarms(
             out = work / f"{field.name}.mcap"
             result = launch(
                 RunPlan(
-                    scenario=str(path),
-                    agents=field.n,
-                    steps=field.steps,
+                    scenario=field,
                     out=out,
                     run_id=uuid.uuid4().hex[:8],
                     clock=Clock(clock),

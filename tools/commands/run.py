@@ -22,7 +22,6 @@ from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
-from shoal.world.loader import builtin_names
 
 
 def injected_drops(reports: Mapping[int, Mapping[str, Any]]) -> dict[str, int]:
@@ -142,9 +141,7 @@ def run(
         run_id = _check_material(secure_dir, run_id, scn.n)
     run_id = run_id or uuid.uuid4().hex[:8]
     plan = RunPlan(
-        scenario=scenario if scenario in builtin_names() else str(Path(scenario).resolve()),
-        agents=scn.n,
-        steps=scn.steps,
+        scenario=scn,
         out=out or Path("runs") / f"{scn.name}-{run_id}.mcap",
         run_id=run_id,
         clock=Clock(mode),

@@ -7,7 +7,9 @@ for every agent's, the logger's and this monitor's liveliness tokens before its 
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import socket
 import sys
 import time
@@ -28,6 +30,19 @@ from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
 from shoal.tools.progress import progress_bar
+from shoal.world.scenario import Scenario
+
+
+def _hand_over(scenario: Scenario, folder: Path) -> Path:
+    """The scenario's text as a file for the world, named so that the world's loader gives it
+    the same name (a scenario without ``name:`` is named after its file)."""
+    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", scenario.name) or "scenario"
+    text = scenario.source
+    if stem != scenario.name and not re.search(r"^name:", text, re.MULTILINE):
+        text = f"name: {json.dumps(scenario.name)}\n{text}"
+    path = folder / f"{stem}.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
 
 
 def free_port() -> int:
@@ -39,9 +54,10 @@ def free_port() -> int:
 
 @dataclass(frozen=True)
 class RunPlan:
-    scenario: str  # a built-in name or an absolute path
-    agents: int
-    steps: int
+    """What to run and how. ``scenario`` is parsed once, by the caller: the world is handed
+    its text, written into the run's folder, never the file it came from (which may change)."""
+
+    scenario: Scenario
     out: Path
     run_id: str
     clock: Clock = Clock.LOCKSTEP
@@ -57,6 +73,14 @@ class RunPlan:
         False  # account each process's CPU per tick (tools/procs/cpu.py; the benchmark)
     )
     overwrite: bool = False  # the logger may replace an existing ``out``
+
+    @property
+    def agents(self) -> int:
+        return self.scenario.n
+
+    @property
+    def steps(self) -> int:
+        return self.scenario.steps
 
 
 @dataclass(frozen=True)
@@ -95,10 +119,11 @@ def launch(plan: RunPlan) -> RunResult:
             ["logger", "--out", str(plan.out), *(["--force"] if plan.overwrite else []), *common],
             ready_pipe=True,
         )
+        handed = _hand_over(plan.scenario, swarm.log_dir)
         swarm.spawn(
             "world",
             "world",
-            ["world", plan.scenario, *common, "--expect", "logger", "--expect", "monitor",
+            ["world", str(handed), *common, "--expect", "logger", "--expect", "monitor",
              "--clock", plan.clock, "--speed", str(plan.speed),
              "--start-timeout", str(plan.start_timeout)],
         )  # fmt: skip
