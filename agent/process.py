@@ -22,17 +22,15 @@ import time
 from collections import defaultdict
 from dataclasses import dataclass
 
-import zenoh
-
 from shoal.agent.controller import Controller
 from shoal.agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
 from shoal.agent.errors import ConfigError
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.links import publisher, still_present, subscribe, watch_presence
 from shoal.bus.report import report_body
 from shoal.bus.runtime import Arrival, Inbox, warn
+from shoal.bus.seam import Answer, Bus, Handle
 from shoal.bus.types import AgentConfig, AgentState, Sensing
 
 
@@ -50,37 +48,45 @@ class AgentOptions:
     max_age: int = MAX_AGE  # realtime: ticks after which a neighbour's state is not followed
 
 
-def fetch_config(
-    session: zenoh.Session, keys: Keys, agent_id: int, timeout: float
-) -> tuple[AgentConfig, str]:
+def fetch_config(bus: Bus, keys: Keys, agent_id: int, timeout: float) -> tuple[AgentConfig, str]:
     """Ask the world's queryable for this agent's configuration and the run's clock. The world
     answers with an error when it will not take this agent (back): that text is the abort's."""
-    for reply in session.get(keys.config(agent_id), timeout=timeout):
-        if reply.err is not None:
-            why = reply.err.payload.to_bytes().decode(errors="replace")
-            raise AgentAbort(f"agent {agent_id}: the world refuses it: {why}")
-        if reply.ok is not None:
-            try:
-                config, clock = codec.decode_assignment(reply.ok.payload.to_bytes())
-            except DecodeError as exc:
-                raise AgentAbort(f"agent {agent_id}: bad configuration: {exc}") from None
-            if config.agent_id == agent_id:
-                return config, clock
+    for answer in bus.ask([keys.config(agent_id)], timeout=timeout):
+        if answer.error is not None:
+            raise AgentAbort(f"agent {agent_id}: the world refuses it: {answer.error}")
+        try:
+            config, clock = codec.decode_assignment(answer.payload)
+        except DecodeError as exc:
+            raise AgentAbort(f"agent {agent_id}: bad configuration: {exc}") from None
+        if config.agent_id == agent_id:
+            return config, clock
     raise AgentAbort(f"agent {agent_id}: the world has no configuration for this agent")
 
 
 class AgentNode:
-    """The agent's state between arrivals; Zenoh I/O goes through ``session`` only."""
+    """The agent's state between arrivals; all I/O goes through ``bus`` (bus/seam.py). A context
+    manager: leaving it undeclares what the agent declared."""
 
-    def __init__(self, options: AgentOptions, session: zenoh.Session) -> None:
+    def __init__(self, options: AgentOptions, bus: Bus) -> None:
         self.options = options
-        self.keys = k = Keys(options.run)
-        self.session = session
+        self.keys = Keys(options.run)
+        self.bus = bus
         self.inbox = Inbox()
         self.dropped = 0
-        self._world_watch = watch_presence(session, k.alive_world, self.inbox)
+        self._held: list[Handle] = []
+        try:
+            self._join()
+        except BaseException:  # nothing declared outlives a failed start
+            self.close()
+            raise
+
+    def _join(self) -> None:
+        """Wait for the world, fetch the configuration, declare what the agent needs and,
+        last, its token."""
+        bus, k, options = self.bus, self.keys, self.options
+        self._held.append(bus.watch(k.alive_world, self.inbox))
         self._await_world()
-        config, self.clock = fetch_config(session, k, options.agent_id, options.start_timeout)
+        config, self.clock = fetch_config(bus, k, options.agent_id, options.start_timeout)
         try:
             self.controller = Controller(config)
         except ConfigError as exc:  # decodes, but no controller can run it (dt ≤ 0, gains ≤ 0)
@@ -93,22 +99,33 @@ class AgentNode:
             )
         self.dropper = Dropper(options.drop_rate, options.drop_seed, me)
         self.ages = AgeStats()
-        self._held = [subscribe(session, k.sensing(me), self.inbox)]
-        self._held += [
-            subscribe(session, k.state(j), self.inbox) for j in self.controller.listens_to
-        ]
-        self._held.append(watch_presence(session, k.alive_agents, self.inbox))
+        self._held.append(bus.subscribe(k.sensing(me), self.inbox))
+        self._held += [bus.subscribe(k.state(j), self.inbox) for j in self.controller.listens_to]
+        self._held.append(bus.watch(k.alive_agents, self.inbox))
         lossy = self.clock == "realtime"  # bus/links.py: a cut neighbour must not stall us
-        self.state_out = publisher(session, k.state(me), lossy=lossy)
-        self.command_out = publisher(session, k.command(me), lossy=lossy)
+        self.state_out = bus.publisher(k.state(me), lossy=lossy)
+        self.command_out = bus.publisher(k.command(me), lossy=lossy)
+        self._held += [self.state_out, self.command_out]
         self.memory = self.controller.start()
         self.gone: set[int] = set()
         self.heard: dict[int, dict[int, AgentState]] = defaultdict(dict)
         self.latest: dict[int, AgentState] = {}  # realtime: the freshest state of each neighbour
         self.pending: tuple[Sensing, AgentState] | None = None
         self.tick = -1  # the last tick sensed
-        self._held.append(session.declare_queryable(k.report(me), self._answer_report))
-        self.token = session.liveliness().declare_token(k.alive_agent(me))
+        self._held.append(bus.serve(k.report(me), self._answer_report))
+        self._held.append(bus.token(k.alive_agent(me)))
+
+    def __enter__(self) -> AgentNode:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Undeclare everything the agent declared, its token last."""
+        held, self._held = self._held, []
+        for entity in held:
+            entity.undeclare()
 
     def _await_world(self) -> None:
         deadline = time.monotonic() + self.options.start_timeout
@@ -126,7 +143,7 @@ class AgentNode:
         while True:
             arrival = self.inbox.wait()
             if arrival.kind == "down" and arrival.key == self.keys.alive_world:
-                if not still_present(self.session, arrival.key):
+                if not self.bus.present(arrival.key):
                     return
                 warn(f"agent {self.options.agent_id}: the world's token went down but it still "
                      "answers; going on")  # fmt: skip
@@ -194,18 +211,17 @@ class AgentNode:
             }
         )
 
-    def _answer_report(self, query: zenoh.Query) -> None:  # a Zenoh thread: reads state only
-        with query:
-            for _ in range(3):  # the main loop may be adding an age to the histogram right now
-                try:
-                    figures = self.report()
-                    break
-                except RuntimeError:
-                    continue
-            else:
-                return
-            body = codec.encode_document("report", figures)
-            query.reply(self.keys.report(self.options.agent_id), body)
+    def _answer_report(self, key: str) -> Answer | None:  # the bus's thread: reads state only
+        for _ in range(3):  # the main loop may be adding an age to the histogram right now
+            try:
+                figures = self.report()
+                break
+            except RuntimeError:
+                continue
+        else:
+            return None
+        body = codec.encode_document("report", figures)
+        return Answer(self.keys.report(self.options.agent_id), body)
 
     def stats(self) -> str:
         """One line for stderr at exit: neighbour states heard and dropped, and their ages."""

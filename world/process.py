@@ -19,14 +19,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import zenoh
 
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.links import publisher, still_present, subscribe, watch_presence
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
+from shoal.bus.seam import Answer, Bus, Handle
 from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
 from shoal.world.kinematics import actuate, integrate, sense_all
 from shoal.world.metrics import summarize
@@ -50,13 +49,14 @@ class WorldOptions:
 
 
 class World:
-    """The world's state between ticks; Zenoh I/O goes through ``session`` only."""
+    """The world's state between ticks; all I/O goes through ``bus`` (bus/seam.py). A context
+    manager: leaving it undeclares what the world declared."""
 
-    def __init__(self, scenario: Scenario, options: WorldOptions, session: zenoh.Session) -> None:
+    def __init__(self, scenario: Scenario, options: WorldOptions, bus: Bus) -> None:
         self.scenario = scenario
         self.options = options
         self.keys = Keys(options.run)
-        self.session = session
+        self.bus = bus
         self.inbox = Inbox()
         self.dropped = 0  # malformed or stale messages counted and dropped
         self.alive = set(range(1, scenario.n + 1))
@@ -69,37 +69,50 @@ class World:
             for i in self.alive
         }
 
-        def serve(query: zenoh.Query) -> None:  # on a Zenoh thread: reads, never writes, state
-            with query:
-                last = str(query.key_expr).rsplit("/", 1)[-1]
-                i = int(last) if last.isascii() and last.isdigit() else None
-                if i is None or i not in configs:
-                    return
-                left = self.departed.get(i)
-                if left is not None and options.clock == Clock.LOCKSTEP:
-                    query.reply_err(
-                        f"agent {i} left at tick {left}; a lockstep run does not take agents "
-                        "back (its neighbours no longer wait for it)"
-                    )
-                    self.inbox.put(Arrival(ArrivalKind.REFUSED, self.keys.alive_agent(i)))
-                    return
-                query.reply(self.keys.config(i), configs[i])
+        def serve(key: str) -> Answer | None:  # on the bus's thread: reads, never writes, state
+            last = key.rsplit("/", 1)[-1]
+            i = int(last) if last.isascii() and last.isdigit() else None
+            if i is None or i not in configs:
+                return None
+            left = self.departed.get(i)
+            if left is not None and options.clock == Clock.LOCKSTEP:
+                self.inbox.put(Arrival(ArrivalKind.REFUSED, self.keys.alive_agent(i)))
+                return Answer(
+                    key,
+                    error=f"agent {i} left at tick {left}; a lockstep run does not take agents "
+                    "back (its neighbours no longer wait for it)",
+                )
+            return Answer(self.keys.config(i), configs[i])
 
         k = self.keys
-        if any(r.ok is not None for r in session.liveliness().get(k.alive_world, timeout=1.0)):
+        if bus.present(k.alive_world, timeout=1.0):
             raise WorldAbort(f"another world already serves run {options.run!r}")
-        self._held = [
-            session.declare_queryable(k.configs, serve),
-            subscribe(session, k.commands, self.inbox),
-            watch_presence(session, k.alive_everyone, self.inbox),
+        self._held: list[Handle] = [
+            bus.serve(k.configs, serve),
+            bus.subscribe(k.commands, self.inbox),
+            bus.watch(k.alive_everyone, self.inbox),
         ]
         lossy = options.clock == Clock.REALTIME  # bus/links.py: one cut agent must not stall all
-        self.sensing_out = {i: publisher(session, k.sensing(i), lossy=lossy) for i in self.alive}
-        self.tick_out = publisher(session, k.tick)
-        self.event_out = publisher(session, k.event)
-        self.summary_out = publisher(session, k.summary)
-        self.scenario_out = publisher(session, k.scenario)
-        self.token = session.liveliness().declare_token(k.alive_world)
+        self.sensing_out = {i: bus.publisher(k.sensing(i), lossy=lossy) for i in self.alive}
+        self.tick_out = bus.publisher(k.tick)
+        self.event_out = bus.publisher(k.event)
+        self.summary_out = bus.publisher(k.summary)
+        self.scenario_out = bus.publisher(k.scenario)
+        self._held += [*self.sensing_out.values(), self.tick_out, self.event_out]
+        self._held += [self.summary_out, self.scenario_out]
+        self._held.append(bus.token(k.alive_world))
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Undeclare everything the world declared, its token last (agents then exit)."""
+        held, self._held = self._held, []
+        for entity in held:
+            entity.undeclare()
 
     # -- start ----------------------------------------------------------------------------------
 
@@ -199,20 +212,17 @@ class World:
         out: dict[str, Any] = {}
         # One query per agent, all in flight at once: under the run's ACL (bus/acl.py) agent i
         # is asked only on its own key, so a wildcard query would reach nobody.
-        asked = {
-            i: self.session.get(self.keys.report(i), timeout=REPORT_TIMEOUT_S)
-            for i in sorted(self.alive)
-        }
-        for i, replies in asked.items():
-            for reply in replies:
-                if reply.ok is None or agent_of(str(reply.ok.key_expr)) != i:
-                    continue
-                try:
-                    body = codec.decode_document("report", reply.ok.payload.to_bytes())
-                except DecodeError as exc:
-                    self._drop(f"{reply.ok.key_expr}: {exc}")
-                    continue
-                out.update(summary_entries(i, body))
+        asked = [self.keys.report(i) for i in sorted(self.alive)]
+        for answer in self.bus.ask(asked, timeout=REPORT_TIMEOUT_S):
+            i = agent_of(answer.key)
+            if answer.error is not None or i is None or i not in self.alive:
+                continue
+            try:
+                body = codec.decode_document("report", answer.payload)
+            except DecodeError as exc:
+                self._drop(f"{answer.key}: {exc}")
+                continue
+            out.update(summary_entries(i, body))
         return out
 
     def _collect(self, k: int, clock: _Clock) -> None:
@@ -281,7 +291,7 @@ class World:
         elif arrival.kind == "down":
             self.up.discard(arrival.key)
             if i is not None and i in self.alive and tick is not None:
-                if still_present(self.session, arrival.key):
+                if self.bus.present(arrival.key):
                     self._event(tick, 2, i, f"agent {i}'s token went down but it still answers; "
                                 "kept")  # fmt: skip
                 else:

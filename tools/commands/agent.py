@@ -10,6 +10,7 @@ import click
 from shoal.agent.process import AgentAbort, AgentNode, AgentOptions
 from shoal.bus.acl import agent_name
 from shoal.bus.runtime import exit_on_signals, warn
+from shoal.bus.seam import ZenohBus
 from shoal.tools.commands.options import bus_options, drop_options
 from shoal.tools.procs.session import client_config, open_session
 
@@ -42,11 +43,12 @@ def agent(
     conf = client_config(connect, zenoh_config, multicast, secure, agent_name(agent_id))
     with open_session(conf, f"agent {agent_id}") as session:
         try:
-            node = AgentNode(options, session)
+            node = AgentNode(options, ZenohBus(session))
         except AgentAbort as exc:
             raise click.ClickException(str(exc)) from None
         try:
-            node.run()
+            with node:
+                node.run()
         finally:
             if node.dropped:
                 warn(f"agent {agent_id}: {node.dropped} bad messages dropped")

@@ -9,6 +9,7 @@ import click
 
 from shoal.bus.acl import WORLD
 from shoal.bus.runtime import exit_on_signals
+from shoal.bus.seam import ZenohBus
 from shoal.bus.types import Clock
 from shoal.tools.commands.options import bus_options, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
@@ -60,9 +61,9 @@ def world(
     conf = client_config(connect, zenoh_config, multicast, secure, WORLD)
     with open_session(conf, "world") as session:
         try:
-            w = World(scn, options, session)
-            w.wait_for_everyone()
-            summary = json_safe(w.run())
+            with World(scn, options, ZenohBus(session)) as w:
+                w.wait_for_everyone()
+                summary = json_safe(w.run())
         except WorldAbort as exc:
             raise click.ClickException(str(exc)) from None
     click.echo(json.dumps(summary) if as_json else render_summary(summary))
