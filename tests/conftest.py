@@ -252,3 +252,18 @@ def shortened(tmp_path: Path, name: str = "sinusoid", duration: float = 4.0) -> 
     path = tmp_path / f"{name}-{duration:g}s.yaml"
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+@contextlib.contextmanager
+def cpu_hogs(count: int, seconds: float) -> Iterator[None]:
+    """``count`` processes spinning on the CPU for at most ``seconds`` (each ends itself then),
+    stopped when the block ends: a busy machine, bounded in time, for tests that a busy machine
+    slows a run down and never changes its result."""
+    spin = f"import time\nend = time.monotonic() + {seconds}\nwhile time.monotonic() < end: pass"
+    hogs = [subprocess.Popen([sys.executable, "-c", spin]) for _ in range(count)]
+    try:
+        yield
+    finally:
+        for h in hogs:
+            h.kill()
+            h.wait()

@@ -6,8 +6,10 @@ Readiness comes from liveliness tokens and the run's own tick records; nothing s
 from __future__ import annotations
 
 import os
+import select
 import signal
 import subprocess
+import time
 from pathlib import Path
 
 import msgpack
@@ -16,6 +18,7 @@ from conftest import (
     PYTHON,
     Watcher,
     client,
+    cpu_hogs,
     descendants,
     json_of,
     processes_mentioning,
@@ -30,9 +33,11 @@ from conftest import (
 from mcap.reader import make_reader
 
 from shoal.bus import codec
+from shoal.bus.runtime import EXIT_GRACE_S
 from shoal.bus.types import AgentState, Sensing
 from shoal.tools.commands.report import json_safe
 from shoal.tools.log.reader import iter_channel, read_trajectory
+from shoal.tools.procs.reaper import WAIT_S as REAPER_WAIT_S
 from shoal.tools.procs.swarm import Swarm
 from shoal.tools.simulator import simulate
 from shoal.world.loader import builtin_names, load_scenario
@@ -86,15 +91,20 @@ def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_p
     assert (after == after[0]).all()  # held still from then on
 
 
-def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize("hogs", [0, 3], ids=["quiet", "beside-3-cpu-hogs"])
+def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path, hogs: int) -> None:
+    """Two lockstep runs share a router and stay exact; and with three processes spinning on
+    the machine's two cores beside them (issue 16: under load a run lost live agents), they
+    are slower, never different: every agent stays, every tick equals the reference."""
     scenario = shortened(tmp_path, "sinusoid", duration=4.0)
     outs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
-    procs = [shoal_run(scenario, router, o, "--json") for o in outs]
-    try:
-        results = [p.communicate(timeout=240) for p in procs]
-    finally:
-        for p in procs:
-            stop(p)
+    with cpu_hogs(hogs, seconds=240.0):
+        procs = [shoal_run(scenario, router, o, "--json") for o in outs]
+        try:
+            results = [p.communicate(timeout=240) for p in procs]
+        finally:
+            for p in procs:
+                stop(p)
     assert [p.returncode for p in procs] == [0, 0], results
     scn = load_scenario(scenario)
     ref = simulate(scn)
@@ -103,6 +113,48 @@ def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path) -> No
         with out.open("rb") as f:
             topics = {c.topic for c in make_reader(f).get_summary().channels.values()}  # type: ignore[union-attr]
         assert len({t.split("/")[1] for t in topics}) == 1  # only its own run's keys
+
+
+def _listening(tree: dict[int, tuple[str, str]]) -> str | None:
+    """The endpoint a router of ``tree`` was started to listen on, from its command line."""
+    for pid in tree:
+        try:
+            args = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"router" in args and b"--listen" in args:
+            return args[args.index(b"--listen") + 1].decode()
+    return None
+
+
+def test_sigkill_of_shoal_run_beside_cpu_hogs_takes_its_own_router_too(tmp_path: Path) -> None:
+    """Issue 16: a SIGKILLed `shoal run` left its router running on a loaded machine (> 60 s).
+    Its router, like every child, gets SIGTERM when the supervisor dies and ends within its
+    grace; here with three processes spinning on two cores from before the kill on."""
+    run, tmp = unique("ownrouter"), tmp_path / "tmp"
+    tmp.mkdir()
+    proc = subprocess.Popen(
+        [*PYTHON, "run", "sinusoid", "--run", run, "--out", str(tmp_path / "run.mcap")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, "TMPDIR": str(tmp)},
+    )
+    try:
+        deadline = time.monotonic() + 60.0
+        while (endpoint := _listening(descendants(proc.pid))) is None:
+            assert time.monotonic() < deadline and proc.poll() is None, "no router started"
+            select.select([], [], [], 0.05)  # a condition polled with a deadline
+        with client(endpoint) as session:
+            Watcher(session, run).until_tick(50)  # the run is under way: readiness by its ticks
+        tree = descendants(proc.pid)
+        with cpu_hogs(3, seconds=60.0):
+            proc.kill()
+            proc.wait(timeout=10)
+            left = still_running_after(tree, EXIT_GRACE_S + REAPER_WAIT_S)
+    finally:
+        stop(proc)
+    assert left == {}
+    assert list(tmp.iterdir()) == []
 
 
 def test_sigterm_to_shoal_run_leaves_a_finished_mcap_and_no_processes(
@@ -190,24 +242,32 @@ def test_realtime_run_converges_without_collisions_and_reports_latency(
 
 def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> None:
     """Children die with their supervisor (PR_SET_PDEATHSIG), even when it cannot clean up;
-    agents forked by the fork server die with it, and it with ``shoal run``."""
+    agents forked by the fork server die with it, and it with ``shoal run``; the run's folder
+    (children's logs; the keys in secured mode) goes too, removed by the reaper once they are
+    gone (tools/procs/reaper.py; issue 16: it was left behind)."""
     run = unique("orphans")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
     proc = subprocess.Popen(
         [*PYTHON, "run", "sinusoid", "--connect", router, "--run", run,
          "--out", str(tmp_path / "run.mcap")],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        env={**os.environ, "TMPDIR": str(tmp)},
     )  # fmt: skip
     try:
         with client(router) as session:
             Watcher(session, run).until_tick(50)
-        tree = descendants(proc.pid)  # world, logger, the fork server and 5 agents
+        # world, logger, the fork server, 5 agents and the folder's reaper
+        tree = descendants(proc.pid)
         names = sorted(name for name, _started in tree.values())
         assert [n for n in names if n.startswith("agent ")] == [f"agent {i}" for i in range(1, 6)]
-        assert len(tree) == 8, names
+        assert len(tree) == 9, names
+        assert [p.name[:10] for p in tmp.iterdir()] == ["shoal-run-"]
         proc.kill()
         proc.wait(timeout=10)
-        left = still_running_after(tree, 15.0)
+        left = still_running_after(tree, 15.0 + REAPER_WAIT_S)
     finally:
         stop(proc)
     assert left == {}
+    assert list(tmp.iterdir()) == []  # the reaper is gone, and it took the folder with it

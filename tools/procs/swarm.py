@@ -151,6 +151,15 @@ class Swarm:
     children: list[Child] = field(default_factory=list)
     fork_agents: bool = True  # fork agents from one process that has imported them already
     zygote: Zygote | None = None
+    reaper: subprocess.Popen[bytes] | None = None  # removes log_dir if we cannot (reaper.py)
+
+    def __post_init__(self) -> None:
+        self.reaper = subprocess.Popen(
+            [sys.executable, "-m", "shoal.tools.procs.reaper", str(self.log_dir)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            start_new_session=True,  # not in our process group: a Ctrl-C is not for it
+        )
 
     def __enter__(self) -> Swarm:
         return self
@@ -268,6 +277,14 @@ class Swarm:
             if c.popen.stdout is not None:
                 c.popen.stdout.close()
         shutil.rmtree(self.log_dir, ignore_errors=True)
+        reaper, self.reaper = self.reaper, None
+        if reaper is not None and reaper.stdin is not None:
+            reaper.stdin.close()  # the folder is gone: it finds nothing to do and leaves
+            try:
+                reaper.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                reaper.kill()
+                reaper.wait()
 
 
 def _start(command: list[str], log: Path, *, stdin: int, stdout: int) -> subprocess.Popen[bytes]:
