@@ -5,11 +5,12 @@ Shapes use T = number of ticks, n = agents, dim = 2 or 3. Tick k covers [k·dt, 
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -93,11 +94,30 @@ class Trajectory:
                 filtered=z["filtered"],
             )
 
+    ARRAYS: ClassVar[tuple[str, ...]] = (
+        "positions",
+        "velocities",
+        "omega",
+        "bid",
+        "sigma",
+        "theta",
+        "filtered",
+    )
+
+    def arrays(self) -> tuple[NDArray[Any], ...]:
+        """Every recorded array, in :data:`ARRAYS` order."""
+        return tuple(getattr(self, k) for k in self.ARRAYS)
+
+    def digest(self) -> str:
+        """A short hash of every array's bytes: equal digests, equal runs (bit for bit)."""
+        h = hashlib.sha256()
+        for a in self.arrays():
+            h.update(a.tobytes())
+        return h.hexdigest()[:16]
+
     def equals(self, other: Trajectory) -> bool:
         """Bit-for-bit equality of every array."""
-        names = ("positions", "velocities", "omega", "bid", "sigma", "theta", "filtered")
         return self.dt == other.dt and all(
-            getattr(self, k).tobytes() == getattr(other, k).tobytes()
-            and getattr(self, k).shape == getattr(other, k).shape
-            for k in names
+            a.shape == b.shape and a.tobytes() == b.tobytes()
+            for a, b in zip(self.arrays(), other.arrays(), strict=True)
         )
