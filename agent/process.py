@@ -30,7 +30,7 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.report import report_body
 from shoal.bus.runtime import Arrival, Inbox, warn
-from shoal.bus.seam import Answer, Bus, Handle
+from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import AgentConfig, AgentState, Sensing
 
 
@@ -63,7 +63,7 @@ def fetch_config(bus: Bus, keys: Keys, agent_id: int, timeout: float) -> tuple[A
     raise AgentAbort(f"agent {agent_id}: the world has no configuration for this agent")
 
 
-class AgentNode:
+class AgentNode(Declarations):
     """The agent's state between arrivals; all I/O goes through ``bus`` (bus/seam.py). A context
     manager: leaving it undeclares what the agent declared."""
 
@@ -73,7 +73,7 @@ class AgentNode:
         self.bus = bus
         self.inbox = Inbox()
         self.dropped = 0
-        self._held: list[Handle] = []
+        super().__init__()
         try:
             self._join()
         except BaseException:  # nothing declared outlives a failed start
@@ -114,18 +114,6 @@ class AgentNode:
         self.tick = -1  # the last tick sensed
         self._held.append(bus.serve(k.report(me), self._answer_report))
         self._held.append(bus.token(k.alive_agent(me)))
-
-    def __enter__(self) -> AgentNode:
-        return self
-
-    def __exit__(self, *_exc: object) -> None:
-        self.close()
-
-    def close(self) -> None:
-        """Undeclare everything the agent declared, its token last."""
-        held, self._held = self._held, []
-        for entity in held:
-            entity.undeclare()
 
     def _await_world(self) -> None:
         deadline = time.monotonic() + self.options.start_timeout

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, Self
 
 import zenoh
 
@@ -72,6 +72,25 @@ class Bus(Protocol):
     def ask(self, keys: Sequence[str], timeout: float) -> list[Answer]:
         """Query every key of ``keys`` at once and return every answer within ``timeout`` s."""
         ...
+
+
+class Declarations:
+    """What a process loop declared on the bus, undeclared in order (its token last) when it
+    closes; a context manager. World and AgentNode are both."""
+
+    def __init__(self) -> None:
+        self._held: list[Handle] = []
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        held, self._held = self._held, []
+        for entity in held:
+            entity.undeclare()
 
 
 class ZenohBus:

@@ -26,18 +26,9 @@ from shoal.bus.geometry import FloatArray
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.world.assumptions import check_graph
 from shoal.world.errors import AssumptionError, WorldError
-from shoal.world.loader import parse_scenario, scenario_from_dict
+from shoal.world.loader import CONTROL_DEFAULTS, parse_scenario, scenario_from_dict
 
 SHAPES = ("wedge", "line", "column", "grid", "circle")
-# The control of the built-in ``obstacles`` scenario, which shoal's campaign is measured with.
-CONTROL = {
-    "alpha": 1.0,
-    "beta": 2.0,
-    "sensing_radius": 5.0,
-    "trigger_radius": 4.0,
-    "epsilon": 0.05,
-    "safety_margin": 0.2,
-}
 # s: after the leader stops, time for the formation to close up (the campaign's tail is 5 s).
 TAIL = 8.0
 
@@ -132,7 +123,7 @@ def new_scenario(
         "dt": 0.01,
         "duration": round(length / speed + TAIL, 6),
         "agent_radius": 0.05,
-        "control": dict(CONTROL),
+        "control": dict(CONTROL_DEFAULTS),  # the loader's, written out to edit
         "graph": {"directed": False, "edges": []},
         "agents": [{"offset": [float(x) for x in row]} for row in slots],
         "initial_noise": 0.0,

@@ -38,7 +38,7 @@ _MOST_STEPS = 10_000_000
 # stack a few hundred levels down anyway. A scenario nests three deep.
 _DEEPEST_FLOW = 100
 _FLOW = re.compile(r"[\[\]{}]")
-_CONTROL_DEFAULTS: dict[str, float] = {
+CONTROL_DEFAULTS: dict[str, float] = {
     "alpha": 1.0,
     "beta": 2.0,
     "sensing_radius": 5.0,
@@ -242,7 +242,7 @@ _SAFETY_MODES = tuple(Safety)
 
 def _control(value: Any) -> Control:
     data = dict(_mapping(value, "control"))
-    _no_unknown(data, {*_CONTROL_DEFAULTS, "safety", "speed_limit", "separation"}, "control")
+    _no_unknown(data, {*CONTROL_DEFAULTS, "safety", "speed_limit", "separation"}, "control")
     safety = data.pop("safety", Safety.FILTER)
     if safety not in _SAFETY_MODES:
         raise ScenarioError(
@@ -254,7 +254,7 @@ def _control(value: Any) -> Control:
     separation = data.pop("separation", None)
     if separation is not None:
         separation = _positive(separation, "control.separation")
-    merged = {**_CONTROL_DEFAULTS, **data}
+    merged = {**CONTROL_DEFAULTS, **data}
     for key in ("alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "sigma_max"):
         _positive(merged[key], f"control.{key}")
     for key in ("safety_margin", "heading_tau", "boundary_layer"):

@@ -25,7 +25,7 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
-from shoal.bus.seam import Answer, Bus, Handle
+from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
 from shoal.world.kinematics import actuate, integrate, sense_all
 from shoal.world.metrics import summarize
@@ -48,11 +48,12 @@ class WorldOptions:
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
 
 
-class World:
+class World(Declarations):
     """The world's state between ticks; all I/O goes through ``bus`` (bus/seam.py). A context
     manager: leaving it undeclares what the world declared."""
 
     def __init__(self, scenario: Scenario, options: WorldOptions, bus: Bus) -> None:
+        super().__init__()
         self.scenario = scenario
         self.options = options
         self.keys = Keys(options.run)
@@ -87,7 +88,7 @@ class World:
         k = self.keys
         if bus.present(k.alive_world, timeout=1.0):
             raise WorldAbort(f"another world already serves run {options.run!r}")
-        self._held: list[Handle] = [
+        self._held += [
             bus.serve(k.configs, serve),
             bus.subscribe(k.commands, self.inbox),
             bus.watch(k.alive_everyone, self.inbox),
@@ -101,18 +102,6 @@ class World:
         self._held += [*self.sensing_out.values(), self.tick_out, self.event_out]
         self._held += [self.summary_out, self.scenario_out]
         self._held.append(bus.token(k.alive_world))
-
-    def __enter__(self) -> World:
-        return self
-
-    def __exit__(self, *_exc: object) -> None:
-        self.close()
-
-    def close(self) -> None:
-        """Undeclare everything the world declared, its token last (agents then exit)."""
-        held, self._held = self._held, []
-        for entity in held:
-            entity.undeclare()
 
     # -- start ----------------------------------------------------------------------------------
 
