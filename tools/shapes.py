@@ -45,23 +45,24 @@ def offsets(shape: str, n: int, spacing: float, dim: int = 2) -> FloatArray:
         raise ShapeError(f"a formation needs at least 2 agents, got {n}")
     if not spacing > 0:
         raise ShapeError(f"spacing must be > 0 m, got {spacing}")
+    if shape == "grid":
+        return np.round(_grid(n, spacing, dim), 6)
     out = np.zeros((n, dim))
+    if shape == "circle":  # followers on a ring round the leader, ``spacing`` apart
+        chord = spacing / (2.0 * math.sin(math.pi / (n - 1))) if n > 2 else spacing
+        ring = max(spacing, chord)
+        for k in range(1, n):
+            phi = math.pi + 2.0 * math.pi * (k - 1) / (n - 1)  # the first one straight behind
+            out[k, :2] = (ring * math.cos(phi), ring * math.sin(phi))
+        return np.round(out, 6)
     for k in range(1, n):
         rank, side = (k + 1) // 2, 1.0 if k % 2 else -1.0  # 1, 1, 2, 2, …; left, right, …
         if shape == "wedge":  # a V opening backwards
             out[k, :2] = (-spacing * rank, side * spacing * rank)
         elif shape == "line":  # abreast, the leader in the middle
             out[k, :2] = (0.0, side * spacing * rank)
-        elif shape == "column":  # single file behind the leader
+        else:  # column: single file behind the leader
             out[k, 0] = -spacing * k
-    if shape == "grid":
-        out = _grid(n, spacing, dim)
-    elif shape == "circle":  # followers on a ring round the leader, ``spacing`` apart
-        chord = spacing / (2.0 * math.sin(math.pi / (n - 1))) if n > 2 else spacing
-        ring = max(spacing, chord)
-        for k in range(1, n):
-            phi = math.pi + 2.0 * math.pi * (k - 1) / (n - 1)  # the first one straight behind
-            out[k, :2] = (ring * math.cos(phi), ring * math.sin(phi))
     return np.round(out, 6)
 
 
