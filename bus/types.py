@@ -168,10 +168,9 @@ def config_problem(c: AgentConfig) -> tuple[str, str] | None:
     if any(len(v) != c.dim for v in points):
         return "path", f"every point and direction needs {c.dim} coordinates"
     p = c.params
-    for name in ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max"):
-        if not getattr(p, name) > 0:
-            return f"params.{name}", f"must be > 0, got {getattr(p, name)}"
-    for name in ("speed_limit", "separation"):
+    positive = ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max", "speed_limit",
+                "separation")  # fmt: skip
+    for name in positive:
         if not getattr(p, name) > 0:
             return f"params.{name}", f"must be > 0, got {getattr(p, name)}"
     if p.safety not in tuple(Safety):
