@@ -9,6 +9,7 @@ receiver counts and drops such messages and never crashes on them.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import reprlib
 from collections.abc import Callable, Mapping
 from operator import itemgetter
@@ -24,6 +25,7 @@ from shoal.bus.types import (
     Command,
     ControlParams,
     Event,
+    Mover,
     PathSpec,
     Reshape,
     Safety,
@@ -165,25 +167,55 @@ def _map(value: Any, where: str) -> Mapping[str, Any]:
 
 
 def encode_sensing(s: Sensing) -> bytes:
-    return _pack(
-        "sensing",
-        {
-            "tick": s.tick,
-            "pos": list(s.position),
-            "oid": list(s.obstacle_ids),
-            "oc": [list(c) for c in s.obstacle_centres],
-            "or": list(s.obstacle_radii),
-            "aid": list(s.agent_ids),
-            "ap": [list(p) for p in s.agent_positions],
-        },
-    )
+    body: dict[str, Any] = {
+        "tick": s.tick,
+        "pos": list(s.position),
+        "oid": list(s.obstacle_ids),
+        "oc": [list(c) for c in s.obstacle_centres],
+        "or": list(s.obstacle_radii),
+        "aid": list(s.agent_ids),
+        "ap": [list(p) for p in s.agent_positions],
+    }
+    if s.movers:  # only in runs with moving obstacles: a static run's bytes are unchanged
+        body["mv"] = [
+            [m.obstacle_id, list(m.centre), m.radius, list(m.velocity), m.speed_cap]
+            for m in s.movers
+        ]
+    return _pack("sensing", body)
+
+
+def _movers(value: Any, where: str) -> tuple[Mover, ...]:
+    """``mv``: [[obstacle id, centre, radius, velocity, speed cap], ...]."""
+    out = []
+    for k, item in enumerate(_list(value, where)):
+        at = f"{where}[{k}]"
+        entry = _list(item, at)
+        if len(entry) != 5:
+            raise DecodeError(f"{at}: expected [id, centre, radius, velocity, speed cap]")
+        mover = Mover(
+            obstacle_id=_int(entry[0], f"{at}.id"),
+            centre=_vector(entry[1], f"{at}.centre"),
+            radius=_float(entry[2], f"{at}.radius"),
+            velocity=_vector(entry[3], f"{at}.velocity"),
+            speed_cap=_float(entry[4], f"{at}.speed_cap"),
+        )
+        if len(mover.velocity) != len(mover.centre):
+            raise DecodeError(f"{at}: velocity and centre differ in coordinates")
+        if not (mover.radius > 0 and mover.speed_cap >= 0):
+            raise DecodeError(f"{at}: radius must be > 0 and speed cap ≥ 0")
+        out.append(mover)
+    return tuple(out)
 
 
 def decode_sensing(data: bytes) -> Sensing:
     m = _unpack("sensing", data)
     fast = _sensing_fast(m)
     if fast is not None:
-        return fast
+        if "mv" not in m:
+            return fast
+        s = dataclasses.replace(fast, movers=_movers(m["mv"], "sensing.mv"))
+        _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
+        return s
     s = Sensing(
         tick=_get(m, "tick", _int),
         position=_get(m, "pos", _vector),
@@ -192,6 +224,7 @@ def decode_sensing(data: bytes) -> Sensing:
         obstacle_radii=_get(m, "or", _floats),
         agent_ids=_get(m, "aid", _ints),
         agent_positions=_get(m, "ap", _vectors),
+        movers=_movers(m["mv"], "sensing.mv") if "mv" in m else (),
     )
     if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
         raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
@@ -199,6 +232,7 @@ def decode_sensing(data: bytes) -> Sensing:
         raise DecodeError("sensing: agent ids and positions differ in length")
     _same_dim(len(s.position), s.obstacle_centres, "sensing.oc")
     _same_dim(len(s.position), s.agent_positions, "sensing.ap")
+    _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
     return s
 
 
@@ -432,20 +466,21 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
 
 
 def encode_tick(t: TickRecord) -> bytes:
-    return _pack(
-        "tick",
-        {
-            "tick": t.tick,
-            "pos": [list(p) for p in t.positions],
-            "vel": [list(v) for v in t.velocities],
-            "omega": list(t.omega),
-            "bid": list(t.bid),
-            "sigma": list(t.sigma),
-            "theta": list(t.theta),
-            "alive": list(t.alive),
-            "flt": list(t.filtered),
-        },
-    )
+    body: dict[str, Any] = {
+        "tick": t.tick,
+        "pos": [list(p) for p in t.positions],
+        "vel": [list(v) for v in t.velocities],
+        "omega": list(t.omega),
+        "bid": list(t.bid),
+        "sigma": list(t.sigma),
+        "theta": list(t.theta),
+        "alive": list(t.alive),
+        "flt": list(t.filtered),
+    }
+    if t.mover_centres:  # only in runs with moving obstacles
+        body["mc"] = [list(c) for c in t.mover_centres]
+        body["mw"] = [list(w) for w in t.mover_velocities]
+    return _pack("tick", body)
 
 
 def decode_tick(data: bytes) -> TickRecord:
@@ -460,13 +495,18 @@ def decode_tick(data: bytes) -> TickRecord:
         theta=_get(m, "theta", _floats),
         alive=_get(m, "alive", _bools),
         filtered=_get(m, "flt", _bools),
+        mover_centres=_get(m, "mc", _vectors) if "mc" in m else (),
+        mover_velocities=_get(m, "mw", _vectors) if "mw" in m else (),
     )
+    if len(t.mover_centres) != len(t.mover_velocities):
+        raise DecodeError("tick: mover centres and velocities differ in length")
     n = len(t.positions)
     per_agent = (t.velocities, t.omega, t.bid, t.sigma, t.theta, t.alive, t.filtered)
     if any(len(x) != n for x in per_agent):
         raise DecodeError("tick: per-agent fields differ in length")
     if n:
-        _same_dim(len(t.positions[0]), (*t.positions, *t.velocities), "tick.pos")
+        movers = (*t.mover_centres, *t.mover_velocities)
+        _same_dim(len(t.positions[0]), (*t.positions, *t.velocities, *movers), "tick.pos")
     return t
 
 

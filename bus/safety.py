@@ -5,8 +5,13 @@
 One row per sensed obstacle (stay outside its guard circle r_j + ρ over the whole step) and one
 per sensed agent (a buffered Voronoi cell: stay R = separation / 2 on your own side of the
 bisector). Every h_r ≤ 0, so u = 0 is feasible for an agent that is currently safe and the
-problem always has a solution. With 2 or 3 unknowns it is solved exactly by enumerating active
-sets of at most ``dim`` rows: no solver, no iteration, the same bits in every process.
+problem always has a solution. A moving obstacle's row also gives way to the distance it may
+walk in the step, u_max·dt (:func:`mover_row`); its h can be > 0, u = 0 is then no longer
+feasible, and where no velocity within the speed limit meets every row (a person corners the
+agent) the filter keeps *passive* safety: the agent moves straight away from whoever presses
+it, or stands, and never towards them (:func:`evade`, docs/people.md). With 2 or 3 unknowns
+it is solved exactly by enumerating active sets of at most ``dim`` rows: no solver, no
+iteration, the same bits in every process.
 
 It lives in the shared package because two processes run it: the agent filters its own command
 (the theorem's setting), and the world applies the very same function at the actuator with
@@ -24,7 +29,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from shoal.bus.types import Sensing, Vector
+from shoal.bus.types import Mover, Sensing, Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
 # only keeps an exactly-on-the-boundary solution from failing its own check.
@@ -41,23 +46,28 @@ _LAMBDA_TOLERANCE = 1e-12
 
 @dataclass(frozen=True, slots=True)
 class Row:
-    """One half-space g · u · dt ≥ h: ``normal`` g a unit (dim,) vector, ``bound`` h ≤ 0, m;
-    ``obstacle``: the row of an obstacle (else of another agent)."""
+    """One half-space g · u · dt ≥ h: ``normal`` g a unit (dim,) vector, ``bound`` h, m (≤ 0
+    except for a moving obstacle's row); ``obstacle``: the row of an obstacle (else of another
+    agent); ``moving``: of a moving obstacle."""
 
     normal: Vector
     bound: float
     obstacle: bool = False
+    moving: bool = False
 
 
 @dataclass(frozen=True, slots=True)
 class Filtered:
     """The filter's answer: the velocity to hold (m/s), and whether it differs from the nominal
     (``active``). ``fallback`` is True when no active set passed its checks and the agent is
-    stopped (u = 0, feasible for a safe agent); it is counted, never expected."""
+    stopped (u = 0, feasible for a safe agent); it is counted, never expected. ``cornered``:
+    no velocity within the speed limit met a moving obstacle's row, and the agent keeps
+    passive safety instead (:func:`evade`)."""
 
     velocity: Vector
     active: bool
     fallback: bool = False
+    cornered: bool = False
 
 
 def _dot(a: Sequence[float], b: Sequence[float]) -> float:
@@ -98,6 +108,19 @@ def agent_row(position: Vector, other: Vector, half_separation: float, *, lower:
     return Row(normal, min(half_separation, half) - half)
 
 
+def mover_row(position: Vector, mover: Mover, margin: float, dt: float) -> Row:
+    """The row of a moving obstacle: g·u·dt ≥ min(r + ρ, D) − D + u_max·dt.
+
+    Whichever way the obstacle moves at up to u_max over the step, g·(y − c) falls by at most
+    u_max·dt: an agent that starts outside the guard circle r + ρ stays outside it all step
+    (the same affine argument as :func:`obstacle_row`'s). One already inside (a person stepped
+    into the guard) must at least not let the gap shrink. Its bound is > 0 within u_max·dt of
+    the guard: the agent has to move away, and standing still is not enough."""
+    normal, dist = _unit_away(position, mover.centre, 1.0)
+    bound = min(mover.radius + margin, dist) - dist + mover.speed_cap * dt
+    return Row(normal, bound, obstacle=True, moving=True)
+
+
 def rows_for(
     sensing: Sensing,
     agent_id: int,
@@ -105,12 +128,14 @@ def rows_for(
     margin: float,
     half_separation: float,
     reach: float = math.inf,
+    dt: float = 0.0,
 ) -> list[Row]:
     """The rows of an agent from its sensing: its obstacles, then its sensed agents.
 
     ``reach`` (m): only rows whose boundary is nearer than this are built, i.e. obstacles whose
     guard circle and agents whose cell edge are within ``reach`` of the agent; with reach =
     ‖v̂‖·dt the others cannot be active (see :func:`project`), so skipping them is exact.
+    Moving obstacles' rows (``dt`` s steps) come last; one whose bound is > 0 is always built.
     """
     pos = sensing.position
     dist = math.dist
@@ -123,6 +148,9 @@ def rows_for(
     for j, q in zip(sensing.agent_ids, sensing.agent_positions, strict=True):
         if dist(pos, q) < near:
             rows.append(agent_row(pos, q, half_separation, lower=agent_id < j))
+    for m in sensing.movers:
+        if dist(pos, m.centre) < m.radius + margin + m.speed_cap * dt + reach:
+            rows.append(mover_row(pos, m, margin, dt))
     return rows
 
 
@@ -140,18 +168,22 @@ def cap_speed(velocity: Vector, limit: float) -> Vector:
     return tuple(x * k for x in velocity)
 
 
-def project(nominal: Vector, rows: Sequence[Row], dt: float) -> Filtered:
+def project(
+    nominal: Vector, rows: Sequence[Row], dt: float, *, radius: float | None = None
+) -> Filtered:
     """The feasible velocity nearest ``nominal`` (m/s) for a step of ``dt`` s.
 
     A feasible nominal comes back unchanged (the same tuple). Rows that the ball of radius
     ‖v̂‖ lies inside are dropped first: the projection onto a convex set that holds 0 is never
     longer than v̂, so they cannot be active. Then every set of at most ``dim`` remaining rows is
     tried as the active set (KKT: the equality-constrained minimiser, multipliers ≥ 0, every row
-    met); the nearest accepted candidate wins, ties to the first in enumeration order.
+    met); the nearest accepted candidate wins, ties to the first in enumeration order. Where
+    some bound is > 0 (0 is not feasible) the caller gives the ``radius`` (m/s) no answer may
+    exceed instead; rows with a bound > 0 are never dropped.
     """
-    speed2 = _dot(nominal, nominal)
+    speed2 = _dot(nominal, nominal) if radius is None else radius * radius
     # A row's boundary lies −h/dt from the origin (‖g‖ = 1); farther than ‖v̂‖: never active.
-    near = [r for r in rows if (r.bound / dt) ** 2 < speed2 or r.bound == 0.0]
+    near = [r for r in rows if (r.bound / dt) ** 2 < speed2 or r.bound >= 0.0]
     if satisfies(nominal, near, dt):
         return Filtered(nominal, active=False)
     dim = len(nominal)
@@ -293,7 +325,7 @@ def keep_going(
     out = list(filtered)
     changed = False
     for r in rows:
-        if not r.obstacle:
+        if not r.obstacle or r.moving:
             continue
         if not _tight(r, filtered, dt) or _dot(r.normal, nominal) >= 0.0:
             continue  # not holding the agent, or the nominal does not push into it
@@ -332,7 +364,16 @@ def safe_velocity(
     never faster than the capped nominal; a feasible nominal comes back unchanged."""
     capped = cap_speed(nominal, speed_limit)
     reach = math.hypot(*capped) * dt
-    rows = rows_for(sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach)
+    rows = rows_for(
+        sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach, dt=dt
+    )
+    if any(r.bound > 0.0 for r in rows):  # a moving obstacle within reach of the guard
+        every = rows_for(
+            sensing, agent_id, margin=margin, half_separation=half_separation,
+            reach=speed_limit * dt, dt=dt,
+        )  # fmt: skip
+        out = evade(capped, every, dt, speed_limit)
+        return Filtered(out.velocity, active=out.velocity != nominal, cornered=out.cornered)
     out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
     if out.active and right_hand:
         turned = sidestep(capped, out.velocity, rows, dt)
@@ -354,3 +395,52 @@ def safe_velocity(
     if capped is not nominal and not out.active:
         return Filtered(out.velocity, active=True)
     return out
+
+
+def _towards_limit(inner: Vector, outer: Vector, limit: float) -> Vector:
+    """The point of the segment from ``inner`` (‖inner‖ ≤ limit) to ``outer`` (faster) whose
+    speed is ``limit``: the larger root t of ‖inner + t(outer − inner)‖² = limit²."""
+    step = tuple(b - a for a, b in zip(inner, outer, strict=True))
+    a = _dot(step, step)
+    b = _dot(inner, step)
+    c = _dot(inner, inner) - limit * limit
+    t = min(1.0, max(0.0, (-b + math.sqrt(max(b * b - a * c, 0.0))) / a))
+    return tuple(x + t * d for x, d in zip(inner, step, strict=True))
+
+
+def evade(nominal: Vector, rows: Sequence[Row], dt: float, speed_limit: float) -> Filtered:
+    """The filter when some row's bound is > 0 (a moving obstacle near the guard), so that
+    standing still is not safe: the velocity within ``speed_limit`` nearest ``nominal`` that
+    meets every row, or, where none does, passive safety.
+
+    1. The projection of the nominal onto every row, if it is within the speed limit.
+    2. Else the slowest velocity that meets every row (the projection of 0); if that is within
+       the limit, the point where the segment from it to the projection of the nominal crosses
+       the limit (both meet every row, so every point between them does).
+    3. Else the agent is cornered: no velocity it can reach keeps the guard. It then flees:
+       it heads at the speed limit straight away from the moving obstacles whose rows it
+       cannot meet (weighted by how far each row is from holding), projected onto the other
+       rows with the moving rows relaxed to "do not come closer" (g·u ≥ 0). That problem
+       holds 0, so it has an answer, and the agent never moves towards anyone pressing it:
+       if contact happens, it is at rest or moving away (``cornered`` True).
+    """
+    limit = speed_limit * _CAP_SLACK
+    near = project(nominal, rows, dt, radius=speed_limit)
+    if not near.fallback and _dot(near.velocity, near.velocity) <= limit * limit:
+        return near
+    zero = tuple(0.0 for _ in nominal)
+    slowest = project(zero, rows, dt, radius=speed_limit)
+    if not slowest.fallback and _dot(slowest.velocity, slowest.velocity) <= limit * limit:
+        if near.fallback:
+            return Filtered(slowest.velocity, active=True)
+        return Filtered(_towards_limit(slowest.velocity, near.velocity, speed_limit), active=True)
+    away = [0.0] * len(nominal)
+    for r in rows:
+        if r.moving and r.bound > 0.0:
+            for c in range(len(away)):
+                away[c] += r.bound * r.normal[c]
+    size = math.sqrt(_dot(away, away))
+    flee = zero if size == 0.0 else tuple(x * (speed_limit / size) for x in away)
+    relaxed = [Row(r.normal, min(r.bound, 0.0), r.obstacle, r.moving) for r in rows]
+    out = project(flee, relaxed, dt)
+    return Filtered(out.velocity, active=True, fallback=out.fallback, cornered=True)

@@ -181,12 +181,32 @@ def config_problem(c: AgentConfig) -> tuple[str, str] | None:
 
 
 @dataclass(frozen=True, slots=True)
+class Mover:
+    """A moving obstacle (a person, a cart) as an agent senses it at the start of a tick.
+
+    obstacle_id : its index in the scenario's obstacles; centre (m) and velocity (m/s) at the
+    start of the tick, the velocity it holds over the tick (the world reports the truth; a real
+    sensor's estimate would carry its error, docs/people.md); radius, m; speed_cap u_max, m/s:
+    the fastest it can move, which the safety filter's row assumes, whatever its velocity.
+    """
+
+    obstacle_id: int
+    centre: Vector
+    radius: float
+    velocity: Vector
+    speed_cap: float
+
+
+@dataclass(frozen=True, slots=True)
 class Sensing:
     """World → agent at the start of tick ``tick``: where the agent is and what it senses.
 
-    obstacle_centres : (m, dim) metres; obstacle_radii : (m,) metres, in obstacle-id order.
+    obstacle_centres : (m, dim) metres; obstacle_radii : (m,) metres, in obstacle-id order: the
+        standing obstacles, which the nominal law (Algorithm 2, the leader's detour) plans round.
     agent_ids, agent_positions : the other agents within the sensing radius and where they are
         at the start of this same tick, (q, dim) metres, in id order (the safety filter's rows).
+    movers : the moving obstacles within the sensing radius, in obstacle-id order; only the
+        safety filter acts on them (docs/people.md).
     """
 
     tick: int
@@ -196,6 +216,7 @@ class Sensing:
     obstacle_radii: tuple[float, ...]
     agent_ids: tuple[int, ...] = ()
     agent_positions: tuple[Vector, ...] = ()
+    movers: tuple[Mover, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -231,7 +252,9 @@ class TickRecord:
     positions (n, dim) m at the start of the tick and velocities (n, dim) m/s held during it, as
     nested tuples in agent-id order; omega, bid, sigma, theta as each agent announced them; alive
     False for an agent the world holds still because its process is gone; filtered True where
-    the agent's safety filter changed its nominal velocity that tick.
+    the agent's safety filter changed its nominal velocity that tick. mover_centres (m) and
+    mover_velocities (m/s): every moving obstacle at the start of the tick and over it, in
+    obstacle order (empty when none moves).
     """
 
     tick: int
@@ -243,6 +266,8 @@ class TickRecord:
     theta: tuple[float, ...]
     alive: tuple[bool, ...]
     filtered: tuple[bool, ...]
+    mover_centres: tuple[Vector, ...] = ()
+    mover_velocities: tuple[Vector, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

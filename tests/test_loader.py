@@ -75,7 +75,13 @@ def graph(*edges: list[int], directed: bool = False) -> dict[str, Any]:
 
 # -- built-ins and the base ---------------------------------------------------------------------
 
-KNOWN_SIZES = {"default": (5, 2), "obstacles": (5, 4), "passage": (5, 2), "sinusoid": (5, 0)}
+KNOWN_SIZES = {
+    "default": (5, 2),
+    "obstacles": (5, 4),
+    "passage": (5, 2),
+    "sinusoid": (5, 0),
+    "crossing": (5, 5),
+}
 
 
 @pytest.mark.parametrize("name", builtin_names())

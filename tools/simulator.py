@@ -1,7 +1,8 @@
 """The reference simulator: every agent and the world in one process, in lockstep.
 
-It calls exactly what the distributed run calls: the world's ``sense_all``, ``actuate`` and
-``integrate`` and each agent's ``Controller.announce`` / ``Controller.act``, in the same order
+It calls exactly what the distributed run calls: the world's ``Field`` (moving obstacles),
+``sense_all``, ``actuate`` and ``integrate`` and each agent's ``Controller.announce`` /
+``Controller.act``, in the same order
 and on the same float64 values, so a lockstep run over Zenoh must reproduce its trajectory bit
 for bit.
 """
@@ -16,7 +17,9 @@ import numpy as np
 from shoal.agent.controller import Controller
 from shoal.bus.geometry import FloatArray
 from shoal.bus.types import AgentState
+from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate, sense_all
+from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
 
@@ -27,7 +30,8 @@ Progress = Callable[[int], None]
 class Tick:
     """One tick of a run: positions (n, dim) at its start, the states announced, the
     velocities (n, dim) held during it (after the world's safety layer, which in lockstep
-    changes nothing), where each agent's filter was active (n,), and the positions it ends at."""
+    changes nothing), where each agent's filter was active (n,), the positions it ends at, and
+    the moving obstacles over it (their centres at its start and velocities held)."""
 
     tick: int
     positions: FloatArray
@@ -35,6 +39,7 @@ class Tick:
     velocities: FloatArray
     filtered: tuple[bool, ...]
     next_positions: FloatArray
+    movers: MoverState
 
 
 def run(scenario: Scenario) -> Iterator[Tick]:
@@ -42,12 +47,16 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     n = scenario.n
     controllers = [Controller(scenario.agent_config(i + 1)) for i in range(n)]
     memories = [c.start() for c in controllers]
-    centres, radii = scenario.obstacle_centres, scenario.obstacle_radii
+    field = Field.of(scenario)
+    crowd = field.start(scenario)
     d = scenario.control.sensing_radius
     params = scenario.params()
     positions = scenario.initial_positions
     for k in range(scenario.steps):
-        sensings = sense_all(k, positions, centres, radii, d)
+        crowd = field.plan(crowd, positions)
+        sensings = sense_all(
+            k, positions, field.centres, field.radii, d, ids=field.ids, movers=field.sensed(crowd)
+        )
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
@@ -61,8 +70,9 @@ def run(scenario: Scenario) -> Iterator[Tick]:
         velocities, _ = actuate(sensings, commanded, params, scenario.dt)
         moved = integrate(positions, velocities, scenario.dt)
         ordered = tuple(states[i + 1] for i in range(n))
-        yield Tick(k, positions, ordered, velocities, tuple(filtered), moved)
+        yield Tick(k, positions, ordered, velocities, tuple(filtered), moved, crowd)
         positions = moved
+        crowd = field.advance(crowd)
 
 
 def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
@@ -74,8 +84,15 @@ def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Traject
     filtered = np.zeros((steps, n), dtype=bool)
     bid, sigma, theta = (np.empty((steps, n)) for _ in range(3))
     positions[0] = scenario.initial_positions
+    m = len(scenario.mover_ids)
+    movers = np.empty((steps + 1, m, dim)) if m else None
+    mover_velocities = np.empty((steps, m, dim)) if m else None
     for t in run(scenario):
         k = t.tick
+        if movers is not None and mover_velocities is not None:
+            movers[k] = t.movers.centres
+            mover_velocities[k] = t.movers.velocities
+            movers[k + 1] = movers[k] + scenario.dt * mover_velocities[k]
         velocities[k] = t.velocities
         positions[k + 1] = t.next_positions
         filtered[k] = t.filtered
@@ -92,4 +109,6 @@ def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Traject
         sigma=sigma,
         theta=theta,
         filtered=filtered,
+        movers=movers,
+        mover_velocities=mover_velocities,
     )

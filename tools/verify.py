@@ -62,6 +62,8 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
             and r.bid == tuple(s.bid for s in t.states)
             and r.sigma == tuple(s.sigma for s in t.states)
             and r.theta == tuple(s.theta for s in t.states)
+            and r.mover_centres == t.movers.centres
+            and r.mover_velocities == t.movers.velocities
         )
         if same:
             matching += 1

@@ -14,6 +14,9 @@ The safety filter's theorem (docs/safety.md), with ``control.safety: filter``: (
     bodies that count a collision; (F) every agent starts outside every guard circle r_j + ρ
     and at least 2R from every other agent.
 Assumptions 2 and 3 only matter when there are obstacles to evade and are skipped otherwise.
+Moving obstacles (docs/people.md) are left to the safety filter: the assumptions above are about
+the standing ones; the filter needs u_max·dt more sensing range, (D) above with
+d − r_max − ρ − u_max·dt, and every agent to start outside every guard circle.
 """
 
 from __future__ import annotations
@@ -36,12 +39,14 @@ def check_assumptions(s: Scenario) -> None:
     _obstacles_apart(s)
     _assumption1(s)
     _safety(s)
-    if s.obstacles:
+    if s.standing_ids:
         _assumption2(s)
         _assumption3(s)
         _leader_path(s)
         _trigger_reach(s)
         _starts_clear(s)
+    if s.mover_ids:
+        _movers(s)
     _beta(s)
 
 
@@ -244,15 +249,17 @@ def _safety(s: Scenario) -> None:
     if step <= 0:
         raise ScenarioError(
             "control.sensing_radius",
-            f"d = {c.sensing_radius} m leaves no safe step: it must exceed r_max + ρ and the "
-            f"separation {s.separation} m, or an agent cannot sense what one step can reach",
+            f"d = {c.sensing_radius} m leaves no safe step: it must exceed r_max + ρ"
+            f"{' + u_max·dt' if s.u_max > 0 else ''} and the separation {s.separation} m, or an "
+            "agent cannot sense what one step can reach",
         )
     if s.speed_limit * s.dt > step * (1 + 1e-12):
+        walk = " − u_max·dt" if s.u_max > 0 else ""
         raise ScenarioError(
             "control.speed_limit",
-            f"v_max·dt = {s.speed_limit * s.dt:.4g} m exceeds min(d − r_max − ρ, (d − 2R)/2) = "
-            f"{step:.4g} m: one step could reach an obstacle or agent not yet sensed; lower "
-            f"it to at most {step / s.dt:.4g} m/s or raise control.sensing_radius",
+            f"v_max·dt = {s.speed_limit * s.dt:.4g} m exceeds min(d − r_max − ρ{walk}, "
+            f"(d − 2R)/2) = {step:.4g} m: one step could reach an obstacle or agent not yet "
+            f"sensed; lower it to at most {step / s.dt:.4g} m/s or raise control.sensing_radius",
         )
     starts = s.initial_positions
     for i, j in itertools.combinations(range(s.n), 2):
@@ -263,6 +270,34 @@ def _safety(s: Scenario) -> None:
                 f"agents {i + 1} and {j + 1} start {gap:.3g} m apart, closer than the "
                 f"separation {s.separation} m the safety filter keeps",
             )
+
+
+def _movers(s: Scenario) -> None:
+    """Moving obstacles: only the safety filter acts on them, and every agent starts outside
+    every guard circle r_j + ρ; they start apart from the standing obstacles and each other."""
+    if s.control.safety != "filter":
+        raise ScenarioError(
+            f"obstacles[{s.mover_ids[0]}].moves",
+            "moving obstacles need control.safety: filter (the paper's Algorithm 2 plans round "
+            "standing obstacles only, so nothing would keep the agents off a moving one)",
+        )
+    rho = s.control.safety_margin
+    for k in s.mover_ids:
+        o = s.obstacles[k]
+        for i, pos in enumerate(s.initial_positions):
+            gap = norm(pos - np.asarray(o.centre)) - o.radius
+            if gap < rho:
+                raise ScenarioError(
+                    f"obstacles[{k}].centre",
+                    f"starts {gap:.3g} m from agent {i + 1}, inside its guard circle (ρ = "
+                    f"{rho} m): the safety filter needs every agent to start outside",
+                )
+        for q, other in enumerate(s.obstacles):
+            if q == k:
+                continue
+            gap = norm(np.asarray(o.centre) - np.asarray(other.centre)) - o.radius - other.radius
+            if gap <= 0:
+                raise ScenarioError(f"obstacles[{k}].centre", f"starts inside obstacles[{q}]")
 
 
 def _beta(s: Scenario) -> None:

@@ -8,13 +8,14 @@ radius d of it, with their positions at the start of the same tick.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from shoal.bus.geometry import FloatArray
 from shoal.bus.safety import safe_velocity
-from shoal.bus.types import ControlParams, Sensing
+from shoal.bus.types import ControlParams, Mover, Sensing
 
 
 def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> FloatArray:
@@ -28,8 +29,15 @@ def sense_all(
     centres: FloatArray,
     radii: FloatArray,
     sensing_radius: float,
+    *,
+    ids: Sequence[int] | None = None,
+    movers: Sequence[Mover] = (),
 ) -> list[Sensing]:
-    """The world's messages to every agent at the start of ``tick``, agent-id order."""
+    """The world's messages to every agent at the start of ``tick``, agent-id order.
+
+    ``ids``: the obstacle id of each row of ``centres`` (default its row); ``movers``: every
+    moving obstacle at the start of the tick, each sensed like a standing one (centre within d).
+    """
     rows = [tuple(row) for row in positions.tolist()]
     n = len(rows)
     apart = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=-1)
@@ -43,6 +51,8 @@ def sense_all(
     radius_list = radii.tolist()
     out = []
     # The masks as lists of bools: indexing them in Python is cheaper than a numpy call per row.
+    names = list(range(len(centre_rows))) if ids is None else list(ids)
+    dist = math.dist
     for row, near_i, close_i in zip(rows, near.tolist(), close.tolist(), strict=True):
         seen = [k for k, hit in enumerate(near_i) if hit]
         others = [q for q, hit in enumerate(close_i) if hit]
@@ -50,11 +60,12 @@ def sense_all(
             Sensing(
                 tick=tick,
                 position=row,
-                obstacle_ids=tuple(seen),
+                obstacle_ids=tuple(names[k] for k in seen),
                 obstacle_centres=tuple(centre_rows[k] for k in seen),
                 obstacle_radii=tuple(radius_list[k] for k in seen),
                 agent_ids=tuple(q + 1 for q in others),
                 agent_positions=tuple(rows[q] for q in others),
+                movers=tuple(m for m in movers if dist(row, m.centre) <= sensing_radius),
             )
         )
     return out

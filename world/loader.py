@@ -24,6 +24,7 @@ from shoal.bus.geometry import dot, norm
 from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoints
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
+from shoal.world.movers import Drift, Motion, Person, Route
 from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario
 
 _TOP = {
@@ -375,14 +376,69 @@ def _obstacles(value: Any, dim: int) -> tuple[Obstacle, ...]:
     for k, item in enumerate(_list(value, "obstacles")):
         where = f"obstacles[{k}]"
         entry = _mapping(item, where)
-        _no_unknown(entry, {"centre", "radius"}, where)
+        _no_unknown(entry, {"centre", "radius", "moves"}, where)
         out.append(
             Obstacle(
                 centre=_vector(entry.get("centre"), f"{where}.centre", dim),
                 radius=_positive(entry.get("radius"), f"{where}.radius"),
+                motion=_motion(entry["moves"], f"{where}.moves", dim) if "moves" in entry else None,
             )
         )
     return tuple(out)
+
+
+MOTION_KINDS = ("drift", "route", "person")
+
+
+def _flag(value: Any, field: str) -> bool:
+    if not isinstance(value, bool):
+        raise ScenarioError(field, f"must be true or false, got {_shown(value)}")
+    return value
+
+
+def _points(value: Any, field: str, dim: int) -> tuple[Vector, ...]:
+    items = _list(value, field)
+    if not items:
+        raise ScenarioError(field, "must list at least one point")
+    return tuple(_vector(p, f"{field}[{k}]", dim) for k, p in enumerate(items))
+
+
+def _motion(value: Any, where: str, dim: int) -> Motion:
+    """``moves:`` of an obstacle (docs/people.md): {kind: drift, velocity}, {kind: route,
+    waypoints, speed, loop}, or {kind: person, goals, speed, u_max, reactive, loop}."""
+    entry = _mapping(value, where)
+    kind = entry.get("kind")
+    if kind not in MOTION_KINDS:
+        raise ScenarioError(f"{where}.kind", f"must be one of {', '.join(MOTION_KINDS)}, "
+                            f"got {_shown(kind)}")  # fmt: skip
+    if kind == "drift":
+        _no_unknown(entry, {"kind", "velocity"}, where)
+        return Drift(_vector(entry.get("velocity"), f"{where}.velocity", dim))
+    if kind == "route":
+        _no_unknown(entry, {"kind", "waypoints", "speed", "loop"}, where)
+        return Route(
+            waypoints=_points(entry.get("waypoints"), f"{where}.waypoints", dim),
+            speed=_positive(entry.get("speed"), f"{where}.speed"),
+            loop=_flag(entry.get("loop", False), f"{where}.loop"),
+        )
+    _no_unknown(entry, {"kind", "goals", "speed", "u_max", "reactive", "loop"}, where)
+    speed = _positive(entry.get("speed", PERSON_SPEED), f"{where}.speed")
+    u_max = _positive(entry.get("u_max", PERSON_CAP * speed), f"{where}.u_max")
+    if u_max < speed:
+        raise ScenarioError(
+            f"{where}.u_max", f"{u_max} m/s is below the preferred speed {speed} m/s"
+        )
+    return Person(
+        goals=_points(entry.get("goals"), f"{where}.goals", dim),
+        speed=speed,
+        u_max=u_max,
+        reactive=_flag(entry.get("reactive", True), f"{where}.reactive"),
+        loop=_flag(entry.get("loop", False), f"{where}.loop"),
+    )
+
+
+PERSON_SPEED = 1.0  # m/s: a person's preferred walking speed unless given (CrowdNav's 1 m/s)
+PERSON_CAP = 1.3  # u_max unless given: this times the preferred speed (Helbing et al.: 1.3)
 
 
 def _reshapes(value: Any, dt: float, duration: float) -> tuple[Reshape, ...]:

@@ -15,6 +15,8 @@ import numpy as np
 from shoal.bus.geometry import FloatArray, norm, shaped
 from shoal.bus.path import path_position, peak_speed
 from shoal.bus.types import Clock
+from shoal.world.contacts import contacts
+from shoal.world.field import centres_at
 from shoal.world.scenario import Scenario
 from shoal.world.theory import convergence_bound
 from shoal.world.trajectory import Trajectory
@@ -28,8 +30,8 @@ class Summary:
     agents: int
     steps: int
     dt: float
-    collisions: int
-    min_clearance: float | None
+    collisions: int  # agent–agent, agent–standing obstacle, and agent-at-fault contacts
+    min_clearance: float | None  # m: least agent-to-edge distance to a standing obstacle
     min_interagent_distance: float
     convergence_time: float | None
     convergence_bound: float
@@ -45,6 +47,11 @@ class Summary:
     longest_stall: float = 0.0  # s
     leader_shortfall: float = 0.0  # m: the leader's final distance from where its path ends
     sigma_disagreement: int = 0  # ticks in which the agents applied different σ
+    # Contacts with moving obstacles by fault (world/contacts.py): the agent moved towards the
+    # obstacle during the contact, or stood / moved away while it was walked into.
+    agent_at_fault: int = 0
+    obstacle_at_fault: int = 0
+    min_mover_clearance: float | None = None  # m: least agent-to-edge distance to a moving one
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -88,9 +95,11 @@ def formation_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
 
 
 def clearances(scenario: Scenario, traj: Trajectory) -> FloatArray:
-    """(T+1, n, m) distance from every agent to every obstacle's edge, m."""
-    centres, radii = scenario.obstacle_centres, scenario.obstacle_radii
-    diff = traj.positions[:, :, None, :] - centres[None, None, :, :]
+    """(T+1, n, m) distance from every agent to every obstacle's edge at every tick, m
+    (obstacles in scenario order, moving ones where they were)."""
+    radii = np.asarray([o.radius for o in scenario.obstacles], dtype=np.float64)
+    centres = centres_at(scenario, traj.movers, traj.positions.shape[0])
+    diff = traj.positions[:, :, None, :] - centres[:, None, :, :]
     return np.asarray(np.linalg.norm(diff, axis=-1) - radii, dtype=np.float64)
 
 
@@ -168,15 +177,22 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCK
         f_max=peak_speed(scenario.path),
     )
     collisions = 0
-    min_clearance = None
+    min_clearance = min_mover_clearance = None
     if scenario.obstacles:
         clear = clearances(scenario, traj)
-        min_clearance = float(clear.min())
-        collisions += onsets(clear < scenario.agent_radius)
+        standing = clear[:, :, list(scenario.standing_ids)]
+        if standing.size:
+            min_clearance = float(standing.min())
+            collisions += onsets(standing < scenario.agent_radius)
+        if scenario.mover_ids:
+            min_mover_clearance = float(clear[:, :, list(scenario.mover_ids)].min())
     pairs = pair_distances(traj)
     collisions += onsets(pairs < 2 * scenario.agent_radius)
     held = holds(traj)
     goal = path_position(scenario.path, traj.ticks * traj.dt)
+    touches = contacts(scenario, traj)
+    at_fault = sum(c.agent_at_fault for c in touches)
+    collisions += at_fault  # a contact a moving obstacle made is counted beside, by fault
     return Summary(
         scenario=scenario.name,
         agents=scenario.n,
@@ -199,4 +215,7 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCK
         stalls=sum(h > STALL_TIME for h in held),
         longest_stall=max(held, default=0.0),
         leader_shortfall=norm(traj.positions[-1, 0] - goal),
+        min_mover_clearance=min_mover_clearance,
+        agent_at_fault=at_fault,
+        obstacle_at_fault=len(touches) - at_fault,
     )

@@ -27,8 +27,10 @@ from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
+from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate, sense_all
 from shoal.world.metrics import summarize
+from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
 
@@ -132,10 +134,12 @@ class World(Declarations):
     def run(self) -> dict[str, Any]:
         """Run every tick; returns (and publishes) the summary with the run's timing."""
         s = self.scenario
-        centres, radii = s.obstacle_centres, s.obstacle_radii
+        field = Field.of(s)
+        crowd = field.start(s)
         positions = s.initial_positions
         history: dict[str, list[Any]] = {
-            name: [] for name in ("pos", "vel", "omega", "bid", "sigma", "theta", "filtered")
+            name: []
+            for name in ("pos", "vel", "omega", "bid", "sigma", "theta", "filtered", "mc", "mw")
         }
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
@@ -145,7 +149,11 @@ class World(Declarations):
         )
         for k in range(s.steps):
             clock.sent(k)
-            sensings = sense_all(k, positions, centres, radii, s.control.sensing_radius)
+            crowd = field.plan(crowd, positions)
+            sensings = sense_all(
+                k, positions, field.centres, field.radii, s.control.sensing_radius,
+                ids=field.ids, movers=field.sensed(crowd),
+            )  # fmt: skip
             for i in sorted(self.alive):
                 self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
             self._collect(k, clock)
@@ -160,11 +168,12 @@ class World(Declarations):
             commanded = _commanded(reports, s.n, s.dim)
             velocities, fixed = actuate(sensings, commanded, params, s.dt)
             corrected += fixed
-            row = _record(k, positions, velocities, reports, self.alive)
+            row = _record(k, positions, velocities, reports, self.alive, crowd)
             self.tick_out.put(codec.encode_tick(row))
             for name, value in zip(history, _columns(row), strict=True):
                 history[name].append(value)
             positions = integrate(positions, velocities, s.dt)
+            crowd = field.advance(crowd)
             if self.aborted is not None:
                 break
         history["pos"].append(positions)
@@ -177,6 +186,7 @@ class World(Declarations):
             sigma=np.asarray(history["sigma"]),
             theta=np.asarray(history["theta"]),
             filtered=np.asarray(history["filtered"], dtype=bool).reshape(-1, s.n),
+            **_mover_arrays(history, crowd, field.moving),
         )
         summary = {
             **summarize(s, traj, clock=self.options.clock).as_dict(),
@@ -340,6 +350,7 @@ def _record(
     velocities: np.ndarray[Any, Any],
     reports: dict[int, tuple[AgentState, Command]],
     alive: set[int],
+    crowd: MoverState,
 ) -> TickRecord:
     """The ground truth of tick k, with the velocities the agents really hold during it."""
     n = positions.shape[0]
@@ -359,11 +370,27 @@ def _record(
         theta=tuple(theta),
         alive=tuple(i in alive for i in range(1, n + 1)),
         filtered=tuple(filtered),
+        mover_centres=crowd.centres,
+        mover_velocities=crowd.velocities,
     )
 
 
 def _columns(r: TickRecord) -> tuple[Any, ...]:
-    return (r.positions, r.velocities, r.omega, r.bid, r.sigma, r.theta, r.filtered)
+    return (
+        r.positions, r.velocities, r.omega, r.bid, r.sigma, r.theta, r.filtered,
+        r.mover_centres, r.mover_velocities,
+    )  # fmt: skip
+
+
+def _mover_arrays(history: dict[str, list[Any]], crowd: MoverState, moving: bool) -> dict[str, Any]:
+    """The trajectory's mover arrays from the tick records, the centres after the last tick
+    (``crowd``, advanced as the world advanced it) appended; empty in a run where nothing moves."""
+    if not moving:
+        return {}
+    return {
+        "movers": np.asarray([*history["mc"], crowd.centres], dtype=np.float64),
+        "mover_velocities": np.asarray(history["mw"], dtype=np.float64),
+    }
 
 
 class _Clock:

@@ -24,14 +24,22 @@ from shoal.bus.types import (
     gains_of,
 )
 from shoal.world.graph import adjacency, communication_graph, diameter
+from shoal.world.movers import Motion
 
 
 @dataclass(frozen=True, slots=True)
 class Obstacle:
-    """A stationary circular (spherical in 3-D) obstacle."""
+    """A circular (spherical in 3-D) obstacle: standing, or moving by ``motion``
+    (world/movers.py), in which case ``centre`` is where it starts."""
 
     centre: Vector
     radius: float
+    motion: Motion | None = None
+
+    @property
+    def speed_cap(self) -> float:
+        """u_max, m/s: the fastest it can move (0 standing)."""
+        return 0.0 if self.motion is None else self.motion.speed_cap
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,15 +126,37 @@ class Scenario:
         """(n, dim) initial positions, m."""
         return np.asarray([a.initial for a in self.agents], dtype=np.float64)
 
+    @cached_property
+    def standing_ids(self) -> tuple[int, ...]:
+        """Indices (in ``obstacles``) of the obstacles that do not move."""
+        return tuple(k for k, o in enumerate(self.obstacles) if o.motion is None)
+
+    @cached_property
+    def mover_ids(self) -> tuple[int, ...]:
+        """Indices (in ``obstacles``) of the moving obstacles (docs/people.md)."""
+        return tuple(k for k, o in enumerate(self.obstacles) if o.motion is not None)
+
+    @property
+    def standing(self) -> tuple[Obstacle, ...]:
+        return tuple(self.obstacles[k] for k in self.standing_ids)
+
     @property
     def obstacle_centres(self) -> FloatArray:
-        return np.asarray([o.centre for o in self.obstacles], dtype=np.float64).reshape(
-            len(self.obstacles), self.dim
+        """(m, dim) centres of the standing obstacles, m: what the nominal law and the paper's
+        assumptions are about (moving ones: ``mover_ids``)."""
+        return np.asarray([o.centre for o in self.standing], dtype=np.float64).reshape(
+            len(self.standing_ids), self.dim
         )
 
     @property
     def obstacle_radii(self) -> FloatArray:
-        return np.asarray([o.radius for o in self.obstacles], dtype=np.float64)
+        """(m,) radii of the standing obstacles, m."""
+        return np.asarray([o.radius for o in self.standing], dtype=np.float64)
+
+    @property
+    def u_max(self) -> float:
+        """m/s: the fastest any obstacle moves (0 when every one stands)."""
+        return max((o.speed_cap for o in self.obstacles), default=0.0)
 
     @property
     def formation_radius(self) -> float:
@@ -141,13 +171,15 @@ class Scenario:
 
     @property
     def largest_step(self) -> float:
-        """m: the longest step the safety theorem admits, min(d − r_max − ρ, (d − 2R)/2), so
-        that no obstacle or agent beyond the sensing radius can be reached in one tick."""
+        """m: the longest step the safety theorem admits, min(d − r_max − ρ − u_max·dt,
+        (d − 2R)/2), so that no obstacle or agent beyond the sensing radius can be reached in
+        one tick, even one that walks towards the agent at u_max (docs/people.md)."""
         c = self.control
-        r_max = float(self.obstacle_radii.max()) if self.obstacles else 0.0
-        return min(
-            c.sensing_radius - r_max - c.safety_margin, (c.sensing_radius - self.separation) / 2
-        )
+        r_max = max((o.radius for o in self.obstacles), default=0.0)
+        reach = c.sensing_radius - r_max - c.safety_margin
+        if self.u_max > 0.0:
+            reach -= self.u_max * self.dt
+        return min(reach, (c.sensing_radius - self.separation) / 2)
 
     @property
     def speed_limit(self) -> float:

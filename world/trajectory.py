@@ -27,6 +27,9 @@ class Trajectory:
     bid : (T, n), each agent's value in Algorithm 1 as announced at each tick.
     sigma, theta : (T, n), the scale and rotation (rad) each agent applied at each tick.
     filtered : (T, n) bool, True where the agent's safety filter changed its nominal velocity.
+    movers : (T+1, m, dim) m, every moving obstacle's centre at the start of every tick and
+        after the last, in scenario order; mover_velocities : (T, m, dim) m/s, held over each
+        tick. Both None in a run where nothing moves (and then not part of :meth:`arrays`).
     """
 
     dt: float
@@ -37,6 +40,8 @@ class Trajectory:
     sigma: FloatArray
     theta: FloatArray
     filtered: NDArray[np.bool_]
+    movers: FloatArray | None = None
+    mover_velocities: FloatArray | None = None
 
     @classmethod
     def from_records(cls, records: Sequence[TickRecord], dt: float) -> Trajectory:
@@ -44,6 +49,11 @@ class Trajectory:
         last record are integrated exactly as the world does (positions + dt · velocities)."""
         positions = np.asarray([r.positions for r in records], dtype=np.float64)
         velocities = np.asarray([r.velocities for r in records], dtype=np.float64)
+        movers = mover_velocities = None
+        if records[0].mover_centres:
+            centres = np.asarray([r.mover_centres for r in records], dtype=np.float64)
+            mover_velocities = np.asarray([r.mover_velocities for r in records], dtype=np.float64)
+            movers = np.concatenate([centres, (centres[-1] + dt * mover_velocities[-1])[None]])
         return cls(
             dt=dt,
             positions=np.concatenate([positions, (positions[-1] + dt * velocities[-1])[None]]),
@@ -53,6 +63,8 @@ class Trajectory:
             sigma=np.asarray([r.sigma for r in records], dtype=np.float64),
             theta=np.asarray([r.theta for r in records], dtype=np.float64),
             filtered=np.asarray([r.filtered for r in records], dtype=bool),
+            movers=movers,
+            mover_velocities=mover_velocities,
         )
 
     @property
@@ -68,17 +80,8 @@ class Trajectory:
         os.replace(part, path)
 
     def _write(self, f: BinaryIO) -> None:
-        np.savez(
-            f,
-            dt=np.float64(self.dt),
-            positions=self.positions,
-            velocities=self.velocities,
-            omega=self.omega,
-            bid=self.bid,
-            sigma=self.sigma,
-            theta=self.theta,
-            filtered=self.filtered,
-        )
+        arrays: dict[str, Any] = dict(zip(self.names(), self.arrays(), strict=True))
+        np.savez(f, dt=np.float64(self.dt), **arrays)
 
     @classmethod
     def load(cls, path: Path) -> Trajectory:
@@ -92,6 +95,8 @@ class Trajectory:
                 sigma=z["sigma"],
                 theta=z["theta"],
                 filtered=z["filtered"],
+                movers=z.get("movers"),
+                mover_velocities=z.get("mover_velocities"),
             )
 
     ARRAYS: ClassVar[tuple[str, ...]] = (
@@ -104,9 +109,16 @@ class Trajectory:
         "filtered",
     )
 
+    MOVER_ARRAYS: ClassVar[tuple[str, ...]] = ("movers", "mover_velocities")
+
+    def names(self) -> tuple[str, ...]:
+        """The names of :meth:`arrays`: :data:`ARRAYS`, then :data:`MOVER_ARRAYS` in a run
+        with moving obstacles."""
+        return self.ARRAYS if self.movers is None else (*self.ARRAYS, *self.MOVER_ARRAYS)
+
     def arrays(self) -> tuple[NDArray[Any], ...]:
-        """Every recorded array, in :data:`ARRAYS` order."""
-        return tuple(getattr(self, k) for k in self.ARRAYS)
+        """Every recorded array, in :meth:`names` order."""
+        return tuple(getattr(self, k) for k in self.names())
 
     def digest(self) -> str:
         """A short hash of every array's bytes: equal digests, equal runs (bit for bit)."""
@@ -117,7 +129,11 @@ class Trajectory:
 
     def equals(self, other: Trajectory) -> bool:
         """Bit-for-bit equality of every array."""
-        return self.dt == other.dt and all(
-            a.shape == b.shape and a.tobytes() == b.tobytes()
-            for a, b in zip(self.arrays(), other.arrays(), strict=True)
+        return (
+            self.dt == other.dt
+            and self.names() == other.names()
+            and all(
+                a.shape == b.shape and a.tobytes() == b.tobytes()
+                for a, b in zip(self.arrays(), other.arrays(), strict=True)
+            )
         )

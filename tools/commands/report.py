@@ -43,6 +43,16 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("agreed σ", _sigma(summary)),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
+    if summary.get("min_mover_clearance") is not None:  # a run with moving obstacles
+        rows.insert(
+            3,
+            (
+                "moving obstacles",
+                f"min clearance {_fmt(summary['min_mover_clearance'], ' m')}, contacts: "
+                f"{_fmt(summary.get('agent_at_fault', 0))} agent at fault, "
+                f"{_fmt(summary.get('obstacle_at_fault', 0))} obstacle at fault",
+            ),
+        )
     if summary.get("safety", "filter") == "filter":
         rows.append(
             (

@@ -22,6 +22,7 @@ from matplotlib.patches import Circle
 
 from shoal.bus.geometry import FloatArray
 from shoal.bus.path import path_positions
+from shoal.world.contacts import contacts
 from shoal.world.metrics import Summary, clearances, formation_errors, pair_distances, summarize
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
@@ -108,6 +109,11 @@ def trajectories(view: RunView) -> Figure:
         Line2D([], [], color="0.3", lw=3.5, alpha=0.45, label="evading (Ω = 1)"),
         Line2D([], [], color="0.5", ls="--", lw=0.8, label="edge dropped (evading)"),
     ]
+    if sc.mover_ids:
+        handles.append(
+            Line2D([], [], color=MOVER_COLOUR, marker="o", lw=0.9,
+                   label="moving obstacle (trail, at the snapshots, 1 s of its velocity)")
+        )  # fmt: skip
     if sc.n > LEGEND_AGENTS:
         handles.append(Line2D([], [], color="0.3", lw=1.2, label="followers: id at path's end"))
     main.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
@@ -125,11 +131,12 @@ def _draw_paths(ax: Axes, view: RunView, axes: tuple[int, int], *, snapshots: bo
     """Paths, obstacles and collisions projected on the coordinates ``axes`` (0 x, 1 y, 2 z)."""
     sc, pos = view.scenario, view.traj.positions
     u, w = axes
-    for o in sc.obstacles:
+    for o in sc.standing:
         x, y = o.centre[u], o.centre[w]  # a sphere projects onto a circle of its radius
         ax.add_patch(Circle((x, y), o.radius, color="0.35", zorder=1))
         trigger = o.radius + sc.control.trigger_radius
         ax.add_patch(Circle((x, y), trigger, fill=False, ls=":", color="0.55", lw=0.8, zorder=1))
+    _draw_movers(ax, view, axes, snapshots=snapshots)
     ref = path_positions(sc.path, view.times)
     ax.plot(ref[:, u], ref[:, w], color="k", lw=0.8, ls="--", label="leader's path", zorder=2)
     named = sc.n <= LEGEND_AGENTS
@@ -149,6 +156,13 @@ def _draw_paths(ax: Axes, view: RunView, axes: tuple[int, int], *, snapshots: bo
         shades = np.linspace(0.25, 0.9, len(_snapshot_ticks(view)))
         for shade, k in zip(shades, _snapshot_ticks(view), strict=True):
             _draw_formation(ax, view, k, alpha=float(shade), axes=axes)
+    theirs = [c for c in contacts(sc, view.traj) if not c.agent_at_fault]
+    if theirs:
+        where = np.asarray([pos[c.start, c.agent - 1] for c in theirs])
+        ax.plot(
+            where[:, u], where[:, w], ls="", marker="o", ms=9, mfc="none", mec=MOVER_COLOUR,
+            mew=1.5, label="walked into by a moving obstacle", zorder=7,
+        )  # fmt: skip
     spots = _collisions(view)
     if spots:
         where = np.asarray([pos[k, i] for k, i, _ in spots])
@@ -162,15 +176,46 @@ def _draw_paths(ax: Axes, view: RunView, axes: tuple[int, int], *, snapshots: bo
     ax.grid(True, lw=0.3)
 
 
+MOVER_COLOUR = "purple"
+
+
+def _draw_movers(ax: Axes, view: RunView, axes: tuple[int, int], *, snapshots: bool) -> None:
+    """Moving obstacles: each one's trail, where it starts (dashed), and with ``snapshots``
+    where it is at the formation's snapshot times, with an arrow of one second's walk."""
+    sc, movers, walks = view.scenario, view.traj.movers, view.traj.mover_velocities
+    if movers is None or walks is None:
+        return
+    u, w = axes
+    for q, k in enumerate(sc.mover_ids):
+        r = sc.obstacles[k].radius
+        ax.plot(movers[:, q, u], movers[:, q, w], color=MOVER_COLOUR, lw=0.9, alpha=0.7, zorder=2)
+        start = (movers[0, q, u], movers[0, q, w])
+        ax.add_patch(Circle(start, r, fill=False, ls="--", color=MOVER_COLOUR, lw=0.8, zorder=2))
+        if not snapshots:
+            continue
+        ticks = _snapshot_ticks(view)
+        for shade, t in zip(np.linspace(0.25, 0.9, len(ticks)), ticks, strict=True):
+            at = min(t, walks.shape[0] - 1)
+            x, y = movers[t, q, u], movers[t, q, w]
+            ax.add_patch(Circle((x, y), r, color=MOVER_COLOUR, alpha=float(shade), zorder=5))
+            ax.annotate(
+                "", (x + walks[at, q, u], y + walks[at, q, w]), (x, y),
+                arrowprops={"arrowstyle": "->", "color": MOVER_COLOUR, "lw": 1.0}, zorder=5,
+            )  # fmt: skip
+
+
 def _collisions(view: RunView) -> list[tuple[int, int, str]]:
     """(position index, agent column, what) of every collision's first moment: an agent closer
-    than its radius to an obstacle's edge, or two agents closer than twice it (both marked)."""
+    than its radius to a standing obstacle's edge, two agents closer than twice it (both
+    marked), or an agent that moved into a moving obstacle (world/contacts.py)."""
     sc, traj = view.scenario, view.traj
     out: list[tuple[int, int, str]] = []
-    if sc.obstacles:
-        inside = np.asarray((clearances(sc, traj) < sc.agent_radius).any(axis=2), dtype=np.bool_)
+    if sc.standing_ids:
+        clear = clearances(sc, traj)[:, :, list(sc.standing_ids)]
+        inside = np.asarray((clear < sc.agent_radius).any(axis=2), dtype=np.bool_)
         for i in range(sc.n):
             out += [(a, i, "obstacle") for a, _ in _runs(inside[:, i])]
+    out += [(c.start, c.agent - 1, "mover") for c in contacts(sc, traj) if c.agent_at_fault]
     close = np.asarray(pair_distances(traj) < 2 * sc.agent_radius, dtype=np.bool_)
     for col, (i, j) in enumerate(itertools.combinations(range(sc.n), 2)):
         for a, _ in _runs(close[:, col]):
