@@ -41,6 +41,7 @@ from shoal.tools.foxglove.views import (
     SCHEMAS_VERSION,
     SENSING,
     TOPICS,
+    TRAILS,
     WORLD,
     RunLog,
     View,
@@ -140,7 +141,9 @@ def reference_log(text: str, *, gone: int | None = None) -> RunLog:
     ticks: list[tuple[int, TickRecord]] = []
     held: tuple[float, ...] | None = None
     for t in simulate_ticks(scenario):
-        alive = tuple(not (gone is not None and t.tick >= gone and i == 3) for i in range(4))
+        alive = tuple(
+            not (gone is not None and t.tick >= gone and i == 3) for i in range(scenario.n)
+        )
         positions = [tuple(p) for p in t.positions.tolist()]
         velocities = [tuple(v) for v in t.velocities.tolist()]
         if not alive[3]:
@@ -156,6 +159,8 @@ def reference_log(text: str, *, gone: int | None = None) -> RunLog:
             theta=tuple(s.theta for s in t.states),
             alive=alive,
             filtered=t.filtered,
+            mover_centres=t.movers.centres,
+            mover_velocities=t.movers.velocities,
         )
         ticks.append((T0 + (t.tick + 1) * LOG_STEP, record))
     finished = Event(scenario.steps, 2, 0, "run finished; 0 bad messages dropped")
@@ -224,6 +229,38 @@ def test_every_view_validates_against_foxglove_schemas(
     for v in msgs:
         validators(TOPICS[v.topic]).validate(v.message)
         json.dumps(v.message, allow_nan=False)
+
+
+# Two people walk across TINY's path: a person (social force) and a blind walker.
+TINY_PEOPLE = TINY.replace("name: tiny", "name: tinypeople").replace(
+    "  - {centre: [1.5, 1.5], radius: 0.5}\n",
+    "  - {centre: [1.5, 1.5], radius: 0.5}\n"
+    "  - {centre: [4, 3], radius: 0.3, moves: {kind: person, goals: [[4, -3]], speed: 1.0}}\n"
+    "  - {centre: [6, -3], radius: 0.3, moves: {kind: route, waypoints: [[6, 3]], speed: 1.2}}\n",
+)
+
+
+def test_moving_obstacles_are_drawn_where_they_are_with_trails_and_validate(
+    npm_schemas: Path,
+) -> None:
+    run = reference_log(TINY_PEOPLE)
+    msgs = list(views(run, ViewOptions(scene_hz=10.0, plot_hz=20.0)))
+    validators = Validators(npm_schemas)
+    for v in msgs:
+        validators(TOPICS[v.topic]).validate(v.message)
+    (world,) = by_topic(msgs, WORLD)
+    assert [e["id"] for e in world.message["entities"] if e["id"].startswith("obstacle/")] == [
+        "obstacle/0"
+    ]  # only the standing one is drawn once
+    last = by_topic(msgs, AGENTS)[-1].message
+    movers = {e["id"]: e for e in last["entities"] if e["id"].startswith("mover/")}
+    assert set(movers) == {"mover/1", "mover/2"}
+    final = run.ticks[-1][1]
+    for k, centre in zip((1, 2), final.mover_centres, strict=True):
+        pillar = movers[f"mover/{k}"]["cylinders"][0]["pose"]["position"]
+        assert (pillar["x"], pillar["y"]) == pytest.approx(centre, abs=1e-4)  # views round
+    trails = {e["id"] for e in by_topic(msgs, TRAILS)[-1].message["entities"]}
+    assert {"trail/mover/1", "trail/mover/2"} <= trails
 
 
 def test_views_are_stamped_with_the_log_time_of_their_record() -> None:

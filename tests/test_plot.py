@@ -247,3 +247,32 @@ def test_a_3d_run_shows_its_height_in_two_more_projections() -> None:
     ]  # fmt: skip
     heights = np.concatenate([ln.get_ydata() for ln in data_lines(axes[1])])
     assert float(heights.max()) == pytest.approx(float(view.traj.positions[:, :, 2].max()))
+
+
+def test_moving_obstacles_are_drawn_with_their_trails_and_contacts_they_made_are_marked() -> None:
+    """crossing: each person's trail is the path the run recorded; a field where blind walkers
+    run into the leader marks those contacts as theirs (not as collisions)."""
+    view = view_of("crossing")
+    (ax,) = trajectories(view).axes
+    movers = view.traj.movers
+    assert movers is not None
+    trails = [ln for ln in data_lines(ax) if ln.get_color() == "purple"]
+    assert len(trails) == movers.shape[1]
+    for q, ln in enumerate(trails):
+        assert np.array_equal(ln.get_xdata(), movers[:, q, 0])
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any(t.startswith("moving obstacle") for t in legend)
+
+    from shoal.tools.campaign.people import PeopleOptions, add_people
+    from shoal.world.contacts import contacts
+
+    field = add_people(
+        load_scenario("obstacles"), 4, FieldOptions(), PeopleOptions(speed=1.75, model="blind")
+    )
+    run = RunView(scenario=field, traj=simulate(field), label="pinned")
+    theirs = [c for c in contacts(field, run.traj) if not c.agent_at_fault]
+    assert theirs  # blind walkers at 1.75 m/s corner the leader in this field
+    (ax,) = trajectories(run).axes
+    (marks,) = [ln for ln in ax.get_lines() if ln.get_label() == "walked into by a moving obstacle"]
+    assert len(marks.get_xdata()) == len(theirs)
+    assert "collision" not in ax.get_title()

@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -101,23 +101,23 @@ def measure(
     field: Scenario, traj: Trajectory, summary: Summary, mode: str = "", seconds: float = 0.0
 ) -> Outcome:
     """The campaign's figures of one run: the summary's, with collisions split by kind."""
-    clear = clearances(field, traj)
+    clear = clearances(field, traj)[:, :, list(field.standing_ids)]  # people: by fault
     spacing = min_desired_spacing(field) / summary.sigma
     outcome = Outcome(
         mode=mode,
         seed=field.seed,
         name=field.name,
         obstacles=len(field.obstacles),
-        obstacle_collisions=onsets(clear < field.agent_radius),
+        obstacle_collisions=onsets(clear < field.agent_radius) + summary.agent_at_fault,
         agent_collisions=onsets(pair_distances(traj) < 2 * field.agent_radius),
-        min_clearance=float(clear.min()) if field.obstacles else math.inf,
+        min_clearance=float(clear.min()) if clear.size else math.inf,
         min_interagent_distance=summary.min_interagent_distance,
         convergence_time=summary.convergence_time,
         convergence_bound=summary.convergence_bound,
         final_formation_error=summary.final_formation_error,
         tolerance=summary.tolerance,
         sigma=summary.sigma,
-        a3_contracted=bool(field.obstacles) and spacing <= 2 * float(field.obstacle_radii.max()),
+        a3_contracted=bool(field.standing_ids) and spacing <= 2 * float(field.obstacle_radii.max()),
         omega_episodes=summary.omega_episodes,
         assumption2_violations=summary.assumption2_violations,
         seconds=seconds,
@@ -177,23 +177,32 @@ def tasks(
     return out
 
 
+T = TypeVar("T")
+R = TypeVar("R")
+
+
 def run_campaign(
-    todo: Sequence[Task], jobs: int, done: Callable[[Outcome], None] = lambda _o: None
-) -> list[Outcome]:
-    """Run every task on ``jobs`` worker processes (in this process if 1); ``done`` is called
-    as each finishes. Outcomes come back in task order."""
+    todo: Sequence[T],
+    jobs: int,
+    done: Callable[[R], None] = lambda _o: None,
+    work: Callable[[T], R] = run_task,  # type: ignore[assignment]
+) -> list[R]:
+    """Run ``work`` on every task on ``jobs`` worker processes (in this process if 1); ``done``
+    is called as each finishes. Outcomes come back in task order."""
     if jobs <= 1:
         results = []
         for t in todo:
-            results.append(run_task(t))
+            results.append(work(t))
             done(results[-1])
         return results
-    by_index: dict[int, Outcome] = {}
+    by_index: dict[int, R] = {}
     # multiprocessing's Pool, not concurrent.futures: on Ctrl-C it can be terminated at once,
     # where an executor's shutdown still ran every queued field (6 minutes for 200 fields).
     pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupts)
     try:
-        for k, outcome in pool.imap_unordered(_run_indexed, enumerate(todo)):
+        for k, outcome in pool.imap_unordered(
+            functools.partial(_run_indexed, work), enumerate(todo)
+        ):
             by_index[k] = outcome
             done(outcome)
     except BaseException:
@@ -205,8 +214,8 @@ def run_campaign(
     return [by_index[k] for k in range(len(todo))]
 
 
-def _run_indexed(item: tuple[int, Task]) -> tuple[int, Outcome]:
-    return item[0], run_task(item[1])
+def _run_indexed(work: Callable[[T], R], item: tuple[int, T]) -> tuple[int, R]:
+    return item[0], work(item[1])
 
 
 def _ignore_interrupts() -> None:

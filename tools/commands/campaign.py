@@ -13,7 +13,17 @@ import click
 
 from shoal.bus.runtime import exit_on_signals
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
+from shoal.tools.campaign.people import (
+    MODELS,
+    PeopleOptions,
+    PeopleOutcome,
+    PeopleTask,
+    people_report,
+    render_people,
+    run_people_task,
+)
 from shoal.tools.campaign.runner import (
+    Outcome,
     lagged,
     measure,
     render,
@@ -92,6 +102,23 @@ def _count(text: str) -> tuple[int, int]:
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     help="Run one saved field (even one the loader refuses) and print its summary.",
 )
+@click.option(
+    "--people",
+    type=click.IntRange(min=1),
+    help="Instead: inside fields with N people crossing the formation's path (docs/people.md).",
+)
+@click.option(
+    "--people-speed", default=1.0, show_default=True, type=click.FloatRange(min=0.05),
+    help="--people: their preferred walking speed, m/s.",
+)  # fmt: skip
+@click.option(
+    "--people-model", type=click.Choice(MODELS), default="reactive", show_default=True,
+    help="--people: social-force walkers who give way to the robots, or blind straight walkers.",
+)  # fmt: skip
+@click.option(
+    "--agent-speed", default=PeopleOptions.agent_speed, show_default=True,
+    type=click.FloatRange(min=0.05), help="--people: the robots' speed limit, m/s.",
+)  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def campaign(
     base: str,
@@ -110,6 +137,10 @@ def campaign(
     save_failures: Path | None,
     save_lagging: Path | None,
     rerun: Path | None,
+    people: int | None,
+    people_speed: float,
+    people_model: str,
+    agent_speed: float,
     as_json: bool,
 ) -> None:
     """Run many random obstacle fields through the reference simulator, in parallel.
@@ -130,6 +161,12 @@ def campaign(
     if swarm is not None:
         _swarms(scn, seed, swarm, options, swarm_clock, as_json)
         return
+    if people is not None:
+        crowd = PeopleOptions(
+            count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
+        )
+        _people(scn, seed, count, options, crowd, max(1, jobs), save_failures, as_json)
+        return
     modes = ("filter", "paper") if safety == "both" else (safety,)
     todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
     if not as_json:  # said up front: --fields counts the inside fields only
@@ -141,7 +178,7 @@ def campaign(
         click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
     start = time.perf_counter()
     with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
-        outcomes = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
+        outcomes: list[Outcome] = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
     rep = report(outcomes, time.perf_counter() - start, max(1, jobs))
     if save_failures is not None:
         written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
@@ -158,6 +195,38 @@ def campaign(
             field["file"] = kept.get(saved_stem(field["name"], field["safety"]))
     click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
     _exit_status(rep, save_failures, "inside/paper" if safety == "paper" else "inside")
+
+
+def _people(
+    scn: Scenario,
+    seed: int,
+    count: int,
+    options: FieldOptions,
+    crowd: PeopleOptions,
+    jobs: int,
+    saved: Path | None,
+    as_json: bool,
+) -> None:
+    """The people campaign; exit status 1 if any contact was an agent's fault."""
+    todo = [PeopleTask(scn.source, scn.name, seed + k, options, crowd) for k in range(count)]
+    start = time.perf_counter()
+    label = f"{count} fields with {crowd.count} {crowd.model} people at {crowd.speed:g} m/s"
+    with progress_bar(count, label) as bar:
+        outcomes: list[PeopleOutcome] = run_campaign(
+            todo, jobs, lambda _o: bar.update(1), work=run_people_task
+        )
+    rep = people_report(outcomes, crowd, time.perf_counter() - start, jobs)
+    if saved is not None:  # every field with a contact or without success, as scenario YAML
+        saved.mkdir(parents=True, exist_ok=True)
+        for o in outcomes:
+            if o.source:
+                (saved / f"{o.name}.yaml").write_text(o.source, encoding="utf-8")
+    click.echo(json.dumps(_json_safe(rep)) if as_json else render_people(rep))
+    if rep["agent_at_fault"]:
+        click.echo(f"{rep['agent_at_fault']} contact(s) were an agent's fault", err=True)
+        sys.exit(1)
+    if rep["errors"]:
+        sys.exit(2)
 
 
 def _swarms(

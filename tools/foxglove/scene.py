@@ -12,6 +12,7 @@ so the swarm stays readable when zoomed out.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -52,6 +53,7 @@ MARGIN: RGBA = (0.45, 0.3, 0.25, 0.5)
 SENSING: RGBA = (0.3, 0.3, 0.8, 0.35)
 PATH: RGBA = (0.5, 0.5, 0.5, 0.6)
 SLOT: RGBA = (0.17, 0.63, 0.17, 0.6)
+MOVER: RGBA = (0.5, 0.0, 0.5, 0.85)  # a moving obstacle (a person)
 
 PILLAR_M = 1.0  # height of a 2-D obstacle's pillar (the plane is z = 0)
 PATH_SAMPLES = 2000  # at most, along the leader's path
@@ -78,7 +80,8 @@ class Layers:
         s = self.scenario
         rho = s.control.safety_margin
         entities = []
-        for k, o in enumerate(s.obstacles):
+        for k in s.standing_ids:  # moving ones are drawn with the agents, tick by tick
+            o = s.obstacles[k]
             meta = {"index": str(k), "radius_m": str(o.radius), "safety_margin_m": str(rho)}
             name, centre = f"obstacle/{k}", vec3(o.centre)
             if s.dim == 3:
@@ -157,7 +160,34 @@ class Layers:
                 )
             )  # fmt: skip
         entities.append(entity(ns, "slots", lines=self._slots(r, where)))
+        entities += self._movers(ns, r)
         return scene_update(entities)
+
+    def _movers(self, ns: int, r: TickRecord) -> list[Json]:
+        """Each moving obstacle where it is at ``r``: its body (a pillar in 2-D), its guard
+        circle r + ρ, an arrow of one second of its velocity, and its label."""
+        s, rho = self.scenario, self.scenario.control.safety_margin
+        out = []
+        for k, c, w in zip(s.mover_ids, r.mover_centres, r.mover_velocities, strict=True):
+            o = s.obstacles[k]
+            centre = vec3(c)
+            speed = math.hypot(*w)
+            meta = {"index": str(k), "radius_m": str(o.radius), "speed_m_s": f"{speed:.4g}",
+                    "u_max_m_s": str(o.speed_cap)}  # fmt: skip
+            tag = text({**centre, "z": centre["z"] + PILLAR_M}, f"obstacle {k}", MOVER)
+            walk = arrow(centre, list(w), MOVER, o.radius / 2)
+            arrows = [walk] if walk is not None else []
+            if s.dim == 3:
+                spheres = [sphere(centre, 2 * o.radius, MOVER),
+                           sphere(centre, 2 * (o.radius + rho), (*MOVER[:3], 0.15))]  # fmt: skip
+                out.append(entity(ns, f"mover/{k}", metadata=meta, spheres=spheres,
+                                  texts=[tag], arrows=arrows))  # fmt: skip
+                continue
+            pillar = cylinder(vec3((c[0], c[1], PILLAR_M / 2)), 2 * o.radius, PILLAR_M, MOVER)
+            ring = line(LINE_LOOP, circle(o.radius + rho), (*MOVER[:3], 0.5), 1.0, origin=centre)
+            out.append(entity(ns, f"mover/{k}", metadata=meta, cylinders=[pillar], lines=[ring],
+                              texts=[tag], arrows=arrows))  # fmt: skip
+        return out
 
     def _slots(self, r: TickRecord, where: list[Json]) -> list[Json]:
         s, h = self.scenario, self.mark / 2
@@ -215,13 +245,17 @@ class Layers:
         return "followed", ""
 
     def trails(self, ns: int, history: list[list[Json]], r: TickRecord, where: list[Json]) -> Json:
-        """The path each agent has travelled: ``history`` (sampled points) up to ``where`` it
-        is in ``r``."""
+        """The path each agent, then each moving obstacle, has travelled: ``history`` (sampled
+        points, agents first) up to ``where`` it is in ``r``."""
         entities = []
-        for i, points in enumerate(history):
+        n = self.scenario.n
+        for i, points in enumerate(history[:n]):
             rgba = (*_agent_colour(r, i)[:3], 0.6)
             strip = line(LINE_STRIP, [*points, where[i]], rgba, 1.5)
             entities.append(entity(ns, f"trail/{i + 1}", lines=[strip]))
+        for q, points in enumerate(history[n:]):
+            strip = line(LINE_STRIP, [*points, where[n + q]], (*MOVER[:3], 0.5), 1.0)
+            entities.append(entity(ns, f"trail/mover/{self.scenario.mover_ids[q]}", lines=[strip]))
         return scene_update(entities)
 
 

@@ -148,7 +148,8 @@ class _Scene:
         self.trail_every = every(options.trail_hz, self.dt)
         self.spacing = every(1.0 / options.trail_spacing_s, self.dt)
         self.keep = options.trail_points
-        self.history: list[list[Json]] = [[] for _ in range(scenario.n)]
+        # Agents, then moving obstacles (scene.py's trails).
+        self.history: list[list[Json]] = [[] for _ in range(scenario.n + len(scenario.mover_ids))]
         self.drawn: tuple[int, FloatArray] | None = None  # tick and positions last drawn
 
     def at(self, ns: int, r: TickRecord, *, first: bool, final: bool) -> Iterator[View]:
@@ -158,8 +159,9 @@ class _Scene:
         if not (sample or draw or redraw):
             return
         where = vec3s(r.positions)  # shared by every layer of this tick
+        tracked = [*where, *vec3s(r.mover_centres)] if r.mover_centres else where
         if sample:
-            for h, p in zip(self.history, where, strict=True):
+            for h, p in zip(self.history, tracked, strict=True):
                 h.append(p)
                 del h[: -self.keep]
         if draw:
@@ -169,7 +171,7 @@ class _Scene:
             yield View(AGENTS, ns, self.layers.agents(ns, r, where, self._velocities(r)))
             yield View(GRAPH, ns, self.layers.graph(ns, r, where))
         if redraw:
-            yield View(TRAILS, ns, self.layers.trails(ns, self.history, r, where))
+            yield View(TRAILS, ns, self.layers.trails(ns, self.history, r, tracked))
 
     def _velocities(self, r: TickRecord) -> list[list[float]]:
         """Each agent's velocity averaged since the previous drawing: the commanded velocity of
