@@ -56,7 +56,10 @@ def _count(text: str) -> tuple[int, int]:
 
 
 @click.command()
-@click.option("--base", default="obstacles", help="Scenario the fields are drawn around.")
+@click.option(
+    "--base",
+    help="Scenario the fields are drawn around.  [default: obstacles; with --people: crossing]",
+)
 @click.option("--fields", "count", default=100, help="Fields inside the assumptions.")
 @click.option("--outside/--no-outside", default=True, help="Also run fields outside them.")
 @click.option("--outside-fields", default=20, help="Fields per broken assumption.")
@@ -121,7 +124,7 @@ def _count(text: str) -> tuple[int, int]:
 )  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def campaign(
-    base: str,
+    base: str | None,
     count: int,
     outside: bool,
     outside_fields: int,
@@ -157,7 +160,7 @@ def campaign(
     options = FieldOptions(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max
     )
-    scn = load_for_cli(base)
+    scn = load_for_cli(base or ("crossing" if people is not None else "obstacles"))
     if swarm is not None:
         _swarms(scn, seed, swarm, options, swarm_clock, as_json)
         return
