@@ -38,7 +38,7 @@ def test_a_crowd_is_drawn_reproducibly_inside_every_check_and_meets_the_formatio
     assert parse_scenario(field.source).source == field.source  # it reloads as it is
     assert len(field.mover_ids) == 5
     kinds = {field.obstacles[k].motion.__class__.__name__ for k in field.mover_ids}
-    assert kinds == ({"Person"} if model == "reactive" else {"Route"})
+    assert kinds == ({"Person"} if model == "reactive" else {"Drift"})
     assert field.control.speed_limit == opts.agent_speed
     traj = simulate(field)
     assert traj.movers is not None
@@ -91,3 +91,5 @@ def test_people_options_are_checked() -> None:
     assert out.exit_code == 2 and "--people" in out.output
     out = CliRunner().invoke(main, ["campaign", "--people", "2", "--people-model", "x"])
     assert out.exit_code == 2 and "--people-model" in out.output
+    out = CliRunner().invoke(main, ["campaign", "--people", "2", "--safety", "paper"])
+    assert out.exit_code == 2 and "needs the safety filter" in out.output

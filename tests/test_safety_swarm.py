@@ -70,3 +70,16 @@ def test_campaign_swarm_runs_fields_as_processes_and_checks_them() -> None:
     (row,) = rep["rows"]
     assert row["exact"] is True and row["name"] == "obstacles-inside-0"
     assert row["min_clearance"] >= row["guard_margin"] - 1e-9
+
+
+def test_campaign_swarm_with_people_equals_the_reference_bit_for_bit() -> None:
+    """Two people fields (crossing's base, five reactive people each) as distributed lockstep
+    runs: every tick, people included, equals the reference simulator."""
+    proc = run_cli(["campaign", "--swarm", "2", "--swarm-clock", "lockstep", "--people", "5",
+                    "--json"])  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    rep = json_of(proc)
+    assert rep["fields"] == 2 and rep["inexact"] == 0 and rep["agent_at_fault"] == 0
+    for row in rep["rows"]:
+        assert row["exact"] is True and row["name"].startswith("crossing-inside-")
+        assert row["min_mover_clearance"] is not None

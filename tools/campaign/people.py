@@ -6,8 +6,8 @@ added after CrowdNav's circle-crossing test: they start spread round a circle wh
 point of the leader's path, each heading for the opposite point of it, and the circle's radius
 is what they walk until the formation reaches that point, so people and robots meet there.
 A person is ``reactive`` (social force, giving way to robots and each other: world/movers.py)
-or ``blind`` (a straight walk at constant speed that sees nobody). The same field is also run
-without its people, for the time to goal it would have taken.
+or ``blind`` (a constant velocity through the circle's centre and on, seeing nobody). The
+same field is also run without its people, for the time to goal it would have taken.
 
 Judged: every contact between an agent and a person, by fault (world/contacts.py: the agent
 moved towards the person during it, or stood or moved away); collisions of any other kind;
@@ -43,9 +43,10 @@ MODELS = ("reactive", "blind")
 @dataclass(frozen=True)
 class PeopleOptions:
     """count people per field walking at ``speed`` m/s (preferred; u_max 1.3× for reactive
-    people, the speed itself for blind ones); ``agent_speed``: the robots' speed limit, m/s
-    (the base's, if it sets one, is replaced: it must beat u_max); ``extra``: seconds added
-    to every field for the formation to finish after the crowd; ``tries``: draws per field."""
+    people; blind ones walk at exactly that speed, their u_max); ``agent_speed``: the robots'
+    speed limit, m/s (the base's, if it sets one, is replaced: it must beat u_max); ``extra``:
+    seconds added to every field for the formation to finish after the crowd; ``tries``:
+    draws per field."""
 
     count: int = 5
     speed: float = 1.0
@@ -146,15 +147,27 @@ def _draw_crowd(
             way[:2] = math.cos(angle), math.sin(angle)
             start = centre + radius * way + rng.uniform(-0.5, 0.5, size=dim) * _plane(dim)
             goal = centre - radius * way + rng.uniform(-0.5, 0.5, size=dim) * _plane(dim)
-            if _fits(s, start, goal, starts, goals, slots, rho, blind=opts.model == "blind"):
+            walk = opts.speed * s.duration  # how far a blind walker goes in the run
+            if _fits(
+                s,
+                start,
+                goal,
+                starts,
+                goals,
+                slots,
+                rho,
+                blind=walk if opts.model == "blind" else 0.0,
+            ):
                 break
         else:
             return None
         starts.append(start)
         goals.append(goal)
         where, to = [round(float(x), 3) for x in start], [round(float(x), 3) for x in goal]
-        if opts.model == "blind":
-            moves = {"kind": "route", "waypoints": [to], "speed": opts.speed}
+        if opts.model == "blind":  # straight on at constant velocity, through the circle and on
+            heading = (goal - start) / np.linalg.norm(goal - start)
+            velocity = [round(float(x), 6) for x in opts.speed * heading]
+            moves: dict[str, Any] = {"kind": "drift", "velocity": velocity}
         else:
             moves = {"kind": "person", "goals": [to], "speed": opts.speed}
         people.append({"centre": where, "radius": PERSON_RADIUS, "moves": moves})
@@ -181,11 +194,12 @@ def _fits(
     slots: np.ndarray,
     rho: float,
     *,
-    blind: bool,
+    blind: float,
 ) -> bool:
     """Apart from the agents' starts and final slots by a guard and a metre (the formation can
     start and settle), from the other people by their bodies and 0.2 m, from standing obstacles;
-    a blind walker's straight line also misses every standing obstacle."""
+    a blind walker's straight line, ``blind`` m long from its start, misses every standing
+    obstacle too."""
     keep = PERSON_RADIUS + rho + 1.0
     if np.linalg.norm(s.initial_positions - start, axis=1).min() <= keep:
         return False
@@ -202,8 +216,10 @@ def _fits(
         room = o.radius + PERSON_RADIUS + 0.2
         if min(np.linalg.norm(c - start), np.linalg.norm(c - goal)) <= room:
             return False
-        if blind and _segment_gap(c, start, goal) <= room:
-            return False
+        if blind:
+            far = start + (goal - start) * (blind / float(np.linalg.norm(goal - start)))
+            if _segment_gap(c, start, far) <= room:
+                return False
     return True
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 from shoal.bus.types import Clock
 from shoal.tools.campaign.fields import FieldOptions, make_field
+from shoal.tools.campaign.people import PeopleOptions, add_people
 from shoal.tools.log.reader import read_trajectory
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.simulator import simulate
@@ -28,14 +29,19 @@ def run_swarms(
     *,
     clock: str,
     speed: float = 1.0,
+    people: PeopleOptions | None = None,
     done: Callable[[dict[str, Any]], None] = lambda _row: None,
 ) -> list[dict[str, Any]]:
-    """One row of figures per field, in seed order (``done`` is called with each)."""
+    """One row of figures per field, in seed order (``done`` is called with each); with
+    ``people``, each field has its crowd (tools/campaign/people.py)."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="shoal-swarm-") as tmp:
         work = Path(tmp)
         for k in range(count):
-            field = make_field(base, seed + k, "inside", options)
+            if people is None:
+                field = make_field(base, seed + k, "inside", options)
+            else:
+                field = add_people(base, seed + k, options, people)
             path = work / f"{field.name}.yaml"
             path.write_text(field.source, encoding="utf-8")
             out = work / f"{field.name}.mcap"
@@ -60,6 +66,9 @@ def run_swarms(
                 "actuator_corrections": s["actuator_corrections"],
                 "missed_deadlines": s["missed_deadlines"],
                 "lost": list(result.lost),
+                "agent_at_fault": s.get("agent_at_fault", 0),
+                "obstacle_at_fault": s.get("obstacle_at_fault", 0),
+                "min_mover_clearance": s.get("min_mover_clearance"),
                 "exact": read_trajectory(out, dt=field.dt).equals(simulate(field))
                 if clock == "lockstep"
                 else None,
@@ -89,6 +98,8 @@ def swarm_report(rows: list[dict[str, Any]], clock: str) -> dict[str, Any]:
         "missed_deadlines": sum(r["missed_deadlines"] for r in rows),
         "inexact": sum(r["exact"] is False for r in rows),
         "lost_agents": sum(len(r["lost"]) for r in rows),
+        "agent_at_fault": sum(r["agent_at_fault"] for r in rows),
+        "obstacle_at_fault": sum(r["obstacle_at_fault"] for r in rows),
         "rows": rows,
     }
 
@@ -103,4 +114,10 @@ def render_swarms(rep: dict[str, Any]) -> str:
         f"{rep['missed_deadlines']}"
         + (f", {rep['inexact']} not bit-exact" if rep["clock"] == "lockstep" else "")
         + (f", {rep['lost_agents']} agent processes lost" if rep["lost_agents"] else "")
+        + (
+            f"; contacts with people: {rep['agent_at_fault']} agent at fault, "
+            f"{rep['obstacle_at_fault']} person at fault"
+            if any(r["min_mover_clearance"] is not None for r in rep["rows"])
+            else ""
+        )
     )

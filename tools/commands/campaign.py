@@ -80,7 +80,8 @@ def _count(text: str) -> tuple[int, int]:
 @click.option(
     "--swarm",
     type=click.IntRange(min=1),
-    help="Instead: run the first N inside fields as distributed swarms (real processes).",
+    help="Instead: run the first N inside fields as distributed swarms (real processes); "
+    "with --people, each with its crowd.",
 )
 @click.option(
     "--swarm-clock",
@@ -161,13 +162,17 @@ def campaign(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max
     )
     scn = load_for_cli(base or ("crossing" if people is not None else "obstacles"))
-    if swarm is not None:
-        _swarms(scn, seed, swarm, options, swarm_clock, as_json)
-        return
+    crowd = None
+    if people is not None and safety != "filter":
+        raise click.UsageError("--people needs the safety filter (docs/people.md)")
     if people is not None:
         crowd = PeopleOptions(
             count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
         )
+    if swarm is not None:
+        _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd)
+        return
+    if crowd is not None:
         _people(scn, seed, count, options, crowd, max(1, jobs), save_failures, as_json)
         return
     modes = ("filter", "paper") if safety == "both" else (safety,)
@@ -233,18 +238,27 @@ def _people(
 
 
 def _swarms(
-    scn: Scenario, seed: int, count: int, options: FieldOptions, clock: str, as_json: bool
+    scn: Scenario,
+    seed: int,
+    count: int,
+    options: FieldOptions,
+    clock: str,
+    as_json: bool,
+    crowd: PeopleOptions | None,
 ) -> None:
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
     with progress_bar(count, f"{count} swarms ({clock}) around {scn.name}") as bar:
         try:
-            rows = run_swarms(scn, seed, count, options, clock=clock, done=lambda _r: bar.update(1))
+            rows = run_swarms(
+                scn, seed, count, options, clock=clock, people=crowd,
+                done=lambda _r: bar.update(1),
+            )  # fmt: skip
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
     rep = swarm_report(rows, clock)
     click.echo(json.dumps(_json_safe(rep)) if as_json else render_swarms(rep))
     if rep["collided"] or rep["below_guard"] or rep["below_separation"] or rep["inexact"]:
-        sys.exit(1)
+        sys.exit(1)  # (an agent-at-fault contact counts among the collisions)
 
 
 def _exit_status(rep: dict[str, Any], saved: Path | None, judged: str) -> None:
