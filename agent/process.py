@@ -28,7 +28,7 @@ from shoal.agent.errors import ConfigError
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.report import report_body
+from shoal.bus.report import pss_kb, report_body
 from shoal.bus.runtime import Arrival, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import AgentConfig, AgentState, Sensing
@@ -196,6 +196,7 @@ class AgentNode(Declarations):
                 "age_max": max(a.histogram, default=None),
                 "stale_edges": a.stale_edges,
                 "peak_rss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+                "pss_kb": pss_kb(),
             }
         )
 

@@ -3,7 +3,8 @@
 At the end of a run the world asks every agent's queryable ``shoal/<run>/agent/<i>/report``
 (docs/wire.md) for a ``report`` document — the figures only the agent knows: the messages it
 dropped as malformed, the neighbour states it heard and the ones the fault injection threw
-away, how old the states it acted on were, its peak memory — and folds the answers into the
+away, how old the states it acted on were, its memory (peak RSS, and PSS, which counts the
+pages it shares with the other agents once among them) — and folds the answers into the
 run's summary as ``agent_<i>.<figure>`` entries, so they are on the bus, in the log, and in
 what ``shoal run`` prints, and nobody reads them from an agent's stderr.
 """
@@ -25,6 +26,7 @@ FIGURES = (
     "age_max",
     "stale_edges",  # edges not followed because the neighbour's state was too old
     "peak_rss_kb",  # the agent process's peak resident memory
+    "pss_kb",  # its proportional set size at the report: shared pages counted once (Linux)
 )
 
 # s the world waits for the reports; an agent that is gone does not answer.
@@ -57,3 +59,17 @@ def reports_in(summary: Mapping[str, Any]) -> dict[int, dict[str, Any]]:
         if m and m.group(2) in FIGURES:
             out.setdefault(int(m.group(1)), {})[m.group(2)] = value
     return dict(sorted(out.items()))
+
+
+def pss_kb() -> int | None:
+    """This process's proportional set size, kB (``Pss:`` of /proc/self/smaps_rollup): its
+    private pages plus its share of each page it maps with other processes, so that the PSS
+    of all a run's agents adds up to the memory they take together. None off Linux."""
+    try:
+        with open("/proc/self/smaps_rollup", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Pss:"):
+                    return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        return None
+    return None

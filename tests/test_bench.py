@@ -35,6 +35,8 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
         assert cpu["total"] > 0 and min(cpu.values()) >= 0, run
     rss = figures["agent_peak_rss_mb"]
     assert rss["processes"] == 3 and 10 < rss["median"] <= rss["max"] < 500
+    pss = figures["agent_pss_mb"]  # the agents share their fork server's pages: PSS < RSS
+    assert pss["processes"] == 3 and 0 < pss["median"] <= pss["max"] < rss["max"]
     assert figures["safety_filter"]["filter_us_per_agent_tick"] > 0
 
 

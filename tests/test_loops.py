@@ -77,6 +77,7 @@ def test_the_loops_on_a_memory_bus_equal_the_reference_bit_for_bit(
     reports = reports_in(summary)  # every agent answered the world's report query
     assert sorted(reports) == list(range(1, scn.n + 1))
     assert all(r["last_tick"] == scn.steps - 1 and r["bad_messages"] == 0 for r in reports.values())
+    assert all((r["pss_kb"] or 0) > 0 for r in reports.values())  # Linux: /proc/self/smaps_rollup
     assert bus.declared == 0  # every loop undeclared what it declared
 
 

@@ -62,3 +62,20 @@ def test_the_world_is_handed_the_text_the_supervisor_parsed_under_the_same_name(
         again = load_scenario(handed)
         assert again.name == parsed.name and again.steps == parsed.steps
         assert again.agents == parsed.agents and again.obstacles == parsed.obstacles
+
+
+def test_an_agent_reports_its_proportional_set_size_below_its_resident_size() -> None:
+    """Issue 15: memory per agent as PSS (shared pages counted once) beside RSS. This process
+    shares its interpreter and libraries with nobody it forked, so PSS ≤ RSS, and both > 0."""
+    import resource
+    import sys
+
+    from shoal.bus.report import pss_kb
+
+    pss = pss_kb()
+    if not sys.platform.startswith("linux"):
+        assert pss is None
+        return
+    assert pss is not None and 0 < pss <= resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    body = report_body({"pss_kb": pss})
+    assert reports_in(summary_entries(1, body))[1]["pss_kb"] == pss

@@ -104,7 +104,7 @@ def bench(
     sizes: Sequence[int], ticks: int, *, say: Callable[[str], None] = lambda _s: None
 ) -> dict[str, Any]:
     """Every figure of the benchmark, as one JSON-able dict."""
-    rows, rss, startup = [], [], {}
+    rows, rss, pss, startup = [], [], [], {}
     with tempfile.TemporaryDirectory(prefix="shoal-bench-") as tmp:
         work = Path(tmp)
         for n in sizes:
@@ -134,6 +134,7 @@ def bench(
             )
             startup[str(n)] = real.startup_s
             rss += real.agent_peak_rss_mb
+            pss += real.agent_pss_mb
         say("5 agents: realtime run")
         rt = measure_run(5, ticks, work, clock="realtime")
     return {
@@ -147,5 +148,12 @@ def bench(
             "max": round(max(rss), 1) if rss else None,
             "median": round(statistics.median(rss), 1) if rss else None,
             "processes": len(rss),
+        },
+        # PSS: shared pages (the interpreter, numpy, zenoh's library) counted once among the
+        # agents that share them — what one more agent really costs.
+        "agent_pss_mb": {
+            "max": round(max(pss), 1) if pss else None,
+            "median": round(statistics.median(pss), 1) if pss else None,
+            "processes": len(pss),
         },
     }

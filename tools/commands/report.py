@@ -77,12 +77,14 @@ def render_summary(summary: dict[str, Any]) -> str:
     reports = reports_in(summary)
     if reports:
         rss = [r["peak_rss_kb"] for r in reports.values() if r.get("peak_rss_kb")]
+        pss = [r["pss_kb"] for r in reports.values() if r.get("pss_kb")]
+        shared = f" (PSS max {_fmt(max(pss) / 1024, ' MB', 1)})" if pss else ""
         bad = sum(r.get("bad_messages") or 0 for r in reports.values())
         rows.append(
             (
                 "agents' reports",
                 f"{len(reports)} of {summary.get('agents', '?')}: "
-                f"peak memory max {_fmt(max(rss) / 1024 if rss else None, ' MB', 1)}, "
+                f"peak memory max {_fmt(max(rss) / 1024 if rss else None, ' MB', 1)}{shared}, "
                 f"{bad} bad messages dropped",
             )
         )

@@ -94,6 +94,11 @@ class RunResult:
     processes: int = 0  # OS processes started for the run (agents' fork server included)
     cpu_us_per_tick: dict[str, float] = field(default_factory=dict)  # with plan.measure_cpu
 
+    @property
+    def agent_pss_mb(self) -> list[float]:
+        """Each reporting agent's proportional set size at the end, MB (bus/report.py)."""
+        return [r["pss_kb"] / 1024 for r in self.agent_reports.values() if r.get("pss_kb")]
+
 
 def launch(plan: RunPlan) -> RunResult:
     """Run ``plan`` to its end; raises tools.swarm.ChildFailed if a process fails."""
