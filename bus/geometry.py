@@ -16,6 +16,7 @@ every machine; elementwise numpy (+, −, ×, ÷, sqrt) is exact and needs no su
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +38,27 @@ def norm(v: FloatArray) -> float:
     """‖v‖ of a (dim,) vector: sqrt(v · v) with :func:`dot`; portable where np.linalg.norm is
     not."""
     return math.sqrt(dot(v, v))
+
+
+def vdot(a: Sequence[float], b: Sequence[float]) -> float:
+    """a · b of two plain-float vectors (tuples, lists), summed from 0.0 left to right: the
+    small-vector arithmetic of the safety filter and the crowd model, the same bits anywhere."""
+    s = 0.0
+    for x, y in zip(a, b, strict=True):
+        s += x * y
+    return s
+
+
+def right_of(heading: Sequence[float]) -> tuple[float, ...]:
+    """A unit vector to the right of the unit ``heading``: clockwise in the plane; in 3-D
+    heading × z (horizontal), or the x axis for a vertical heading."""
+    if len(heading) == 2:
+        return (heading[1], -heading[0])
+    hx, hy, _hz = heading
+    size = math.hypot(hx, hy)
+    if size < 1e-9:
+        return (1.0, 0.0, 0.0)
+    return (hy / size, -hx / size, 0.0)
 
 
 def segment_distance(point: FloatArray, a: FloatArray, b: FloatArray) -> float:

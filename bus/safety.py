@@ -24,11 +24,13 @@ more than the work. Vectors are tuples in metres (positions) or m/s (velocities)
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from shoal.bus.geometry import right_of, vdot
 from shoal.bus.types import Mover, Sensing, Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
@@ -70,19 +72,12 @@ class Filtered:
     cornered: bool = False
 
 
-def _dot(a: Sequence[float], b: Sequence[float]) -> float:
-    s = 0.0
-    for x, y in zip(a, b, strict=True):
-        s += x * y
-    return s
-
-
 def _unit_away(own: Vector, other: Vector, axis_sign: float) -> tuple[Vector, float]:
     """(unit vector from ``other`` to ``own``, their distance). For coincident points (a state
     the filter never leads to) the x axis, signed so that the two ends of a pair get opposite
     normals."""
     diff = tuple(a - b for a, b in zip(own, other, strict=True))
-    dist = math.sqrt(_dot(diff, diff))
+    dist = math.sqrt(vdot(diff, diff))
     if dist == 0.0:
         return (axis_sign, *([0.0] * (len(own) - 1))), 0.0
     return tuple(x / dist for x in diff), dist
@@ -156,7 +151,7 @@ def rows_for(
 
 def satisfies(velocity: Sequence[float], rows: Sequence[Row], dt: float) -> bool:
     """Every row met by ``velocity`` held for ``dt`` s, within :data:`TOLERANCE` m."""
-    return all(_dot(r.normal, velocity) * dt >= r.bound - TOLERANCE for r in rows)
+    return all(vdot(r.normal, velocity) * dt >= r.bound - TOLERANCE for r in rows)
 
 
 def cap_speed(velocity: Vector, limit: float) -> Vector:
@@ -181,7 +176,7 @@ def project(
     some bound is > 0 (0 is not feasible) the caller gives the ``radius`` (m/s) no answer may
     exceed instead; rows with a bound > 0 are never dropped.
     """
-    speed2 = _dot(nominal, nominal) if radius is None else radius * radius
+    speed2 = vdot(nominal, nominal) if radius is None else radius * radius
     # A row's boundary lies −h/dt from the origin (‖g‖ = 1); farther than ‖v̂‖: never active.
     near = [r for r in rows if (r.bound / dt) ** 2 < speed2 or r.bound >= 0.0]
     if satisfies(nominal, near, dt):
@@ -195,7 +190,7 @@ def project(
             if candidate is None or not satisfies(candidate, near, dt):
                 continue
             change = tuple(a - b for a, b in zip(candidate, nominal, strict=True))
-            dist = _dot(change, change)
+            dist = vdot(change, change)
             if dist < best_dist:
                 best, best_dist = candidate, dist
     if best is None:
@@ -206,8 +201,8 @@ def project(
 def _on_planes(nominal: Vector, chosen: Sequence[Row], dt: float) -> Vector | None:
     """The point nearest ``nominal`` on the planes g·u = h/dt of ``chosen``: u = v̂ + Gᵀλ with
     (G Gᵀ) λ = h/dt − G v̂; None when the normals are dependent or some λ < 0 (not a KKT point)."""
-    gram = [[_dot(a.normal, b.normal) for b in chosen] for a in chosen]
-    rhs = [r.bound / dt - _dot(r.normal, nominal) for r in chosen]
+    gram = [[vdot(a.normal, b.normal) for b in chosen] for a in chosen]
+    rhs = [r.bound / dt - vdot(r.normal, nominal) for r in chosen]
     lam = _solve(gram, rhs)
     if lam is None or min(lam) < -_LAMBDA_TOLERANCE:
         return None
@@ -254,21 +249,9 @@ def _det3(m: list[list[float]]) -> float:
     )
 
 
-def _right_of(heading: Vector) -> Vector:
-    """A unit vector to the right of the unit ``heading``: clockwise in the plane; in 3-D
-    heading × z (horizontal), or the x axis for a vertical heading."""
-    if len(heading) == 2:
-        return (heading[1], -heading[0])
-    hx, hy, _hz = heading
-    norm = math.hypot(hx, hy)
-    if norm < 1e-9:
-        return (1.0, 0.0, 0.0)
-    return (hy / norm, -hx / norm, 0.0)
-
-
 def _tight(row: Row, velocity: Vector, dt: float) -> bool:
     """Whether ``velocity`` held for ``dt`` lies on ``row``'s boundary (within 1e-9 m)."""
-    return abs(_dot(row.normal, velocity) * dt - row.bound) <= 1e-9
+    return abs(vdot(row.normal, velocity) * dt - row.bound) <= 1e-9
 
 
 def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) -> Vector | None:
@@ -285,23 +268,23 @@ def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) 
     people do; an agent behind an obstacle goes round it to the right. The caller projects the
     result again, so safety does not depend on it.
     """
-    speed = math.sqrt(_dot(nominal, nominal))
-    if _dot(filtered, filtered) >= (SIDESTEP_BELOW * speed) ** 2:
+    speed = math.sqrt(vdot(nominal, nominal))
+    if vdot(filtered, filtered) >= (SIDESTEP_BELOW * speed) ** 2:
         return None
     push = [0.0] * len(nominal)
     for r in rows:
         if not _tight(r, filtered, dt):
             continue  # not what holds the agent back
-        into = -_dot(r.normal, nominal)
+        into = -vdot(r.normal, nominal)
         if into <= 0.0:
             continue
-        right = _right_of(tuple(-g for g in r.normal))  # right of "towards it"
+        right = right_of(tuple(-g for g in r.normal))  # right of "towards it"
         for c in range(len(push)):
             push[c] += into * right[c]
     if not any(push):
         return None
     turned = [a + b for a, b in zip(nominal, push, strict=True)]
-    size = math.sqrt(_dot(turned, turned))
+    size = math.sqrt(vdot(turned, turned))
     if size == 0.0:
         return None
     return tuple(x * (speed / size) for x in turned)
@@ -327,16 +310,16 @@ def keep_going(
     for r in rows:
         if not r.obstacle or r.moving:
             continue
-        if not _tight(r, filtered, dt) or _dot(r.normal, nominal) >= 0.0:
+        if not _tight(r, filtered, dt) or vdot(r.normal, nominal) >= 0.0:
             continue  # not holding the agent, or the nominal does not push into it
         n = r.normal
-        along = _dot(n, out)
+        along = vdot(n, out)
         tangent = [x - along * g for x, g in zip(out, n, strict=True)]
-        before = _dot(n, previous)
+        before = vdot(n, previous)
         was = [x - before * g for x, g in zip(previous, n, strict=True)]
-        if _dot(tangent, was) >= 0.0:
+        if vdot(tangent, was) >= 0.0:
             continue
-        scale = math.sqrt(_dot(tangent, tangent) / _dot(was, was))
+        scale = math.sqrt(vdot(tangent, tangent) / vdot(was, was))
         out = [along * g + scale * w for g, w in zip(n, was, strict=True)]
         changed = True
     return tuple(out) if changed else None
@@ -373,7 +356,7 @@ def safe_velocity(
             reach=speed_limit * dt, dt=dt,
         )  # fmt: skip
         out = evade(capped, every, dt, speed_limit)
-        return Filtered(out.velocity, active=out.velocity != nominal, cornered=out.cornered)
+        return dataclasses.replace(out, active=out.velocity != nominal)
     out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
     if out.active and right_hand:
         turned = sidestep(capped, out.velocity, rows, dt)
@@ -385,10 +368,10 @@ def safe_velocity(
             onward = keep_going(capped, out.velocity, previous, rows, dt)
             if onward is not None:
                 again = project(onward, rows, dt)
-                kept = _dot(again.velocity, again.velocity)
+                kept = vdot(again.velocity, again.velocity)
                 # Only if the way onward is open: blocked there (another agent, another row),
                 # going back is the agent's way out, and insisting held it for good (measured).
-                if not again.fallback and kept >= SIDESTEP_BELOW**2 * _dot(
+                if not again.fallback and kept >= SIDESTEP_BELOW**2 * vdot(
                     out.velocity, out.velocity
                 ):
                     out = Filtered(again.velocity, active=True)
@@ -401,9 +384,9 @@ def _towards_limit(inner: Vector, outer: Vector, limit: float) -> Vector:
     """The point of the segment from ``inner`` (‖inner‖ ≤ limit) to ``outer`` (faster) whose
     speed is ``limit``: the larger root t of ‖inner + t(outer − inner)‖² = limit²."""
     step = tuple(b - a for a, b in zip(inner, outer, strict=True))
-    a = _dot(step, step)
-    b = _dot(inner, step)
-    c = _dot(inner, inner) - limit * limit
+    a = vdot(step, step)
+    b = vdot(inner, step)
+    c = vdot(inner, inner) - limit * limit
     t = min(1.0, max(0.0, (-b + math.sqrt(max(b * b - a * c, 0.0))) / a))
     return tuple(x + t * d for x, d in zip(inner, step, strict=True))
 
@@ -426,11 +409,11 @@ def evade(nominal: Vector, rows: Sequence[Row], dt: float, speed_limit: float) -
     """
     limit = speed_limit * _CAP_SLACK
     near = project(nominal, rows, dt, radius=speed_limit)
-    if not near.fallback and _dot(near.velocity, near.velocity) <= limit * limit:
+    if not near.fallback and vdot(near.velocity, near.velocity) <= limit * limit:
         return near
     zero = tuple(0.0 for _ in nominal)
     slowest = project(zero, rows, dt, radius=speed_limit)
-    if not slowest.fallback and _dot(slowest.velocity, slowest.velocity) <= limit * limit:
+    if not slowest.fallback and vdot(slowest.velocity, slowest.velocity) <= limit * limit:
         if near.fallback:
             return Filtered(slowest.velocity, active=True)
         return Filtered(_towards_limit(slowest.velocity, near.velocity, speed_limit), active=True)
@@ -439,7 +422,7 @@ def evade(nominal: Vector, rows: Sequence[Row], dt: float, speed_limit: float) -
         if r.moving and r.bound > 0.0:
             for c in range(len(away)):
                 away[c] += r.bound * r.normal[c]
-    size = math.sqrt(_dot(away, away))
+    size = math.sqrt(vdot(away, away))
     flee = zero if size == 0.0 else tuple(x * (speed_limit / size) for x in away)
     relaxed = [Row(r.normal, min(r.bound, 0.0), r.obstacle, r.moving) for r in rows]
     out = project(flee, relaxed, dt)

@@ -29,6 +29,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from shoal.bus.geometry import right_of, vdot
 from shoal.bus.types import Vector
 
 RELAXATION = 0.5  # s: τ, how fast a person takes up its preferred velocity
@@ -54,7 +55,7 @@ class Drift:
 
     @property
     def speed_cap(self) -> float:
-        return math.sqrt(_dot(self.velocity, self.velocity))
+        return math.sqrt(vdot(self.velocity, self.velocity))
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,29 +113,12 @@ class MoverState:
     legs: tuple[int, ...]
 
 
-def _dot(a: Sequence[float], b: Sequence[float]) -> float:
-    s = 0.0
-    for x, y in zip(a, b, strict=True):
-        s += x * y
-    return s
-
-
 def _toward(here: Vector, there: Vector, speed: float) -> Vector:
     diff = [b - a for a, b in zip(here, there, strict=True)]
-    dist = math.sqrt(_dot(diff, diff))
+    dist = math.sqrt(vdot(diff, diff))
     if dist == 0.0:
         return tuple(0.0 for _ in here)
     return tuple(x * (speed / dist) for x in diff)
-
-
-def _right_of(heading: Vector) -> Vector:
-    """The unit vector to the right of the unit ``heading``, horizontal in 3-D."""
-    if len(heading) == 2:
-        return (heading[1], -heading[0])
-    size = math.hypot(heading[0], heading[1])
-    if size == 0.0:
-        return (1.0, 0.0, 0.0)
-    return (heading[1] / size, -heading[0] / size, 0.0)
 
 
 def _targets(motion: Route | Person) -> tuple[Vector, ...]:
@@ -209,7 +193,7 @@ def _route_velocity(m: Route, here: Vector, leg: int, dt: float) -> tuple[Vector
         return tuple(0.0 for _ in here), leg
     target = m.waypoints[leg]
     diff = [b - a for a, b in zip(here, target, strict=True)]
-    dist = math.sqrt(_dot(diff, diff))
+    dist = math.sqrt(vdot(diff, diff))
     if dist <= m.speed * dt:
         return tuple(x / dt for x in diff), _next_leg(m, leg)
     return tuple(x * (m.speed / dist) for x in diff), leg
@@ -232,11 +216,11 @@ def _person_velocity(
     else:
         wanted = tuple(0.0 for _ in here)  # arrived: it stands
     force = [(w - v) / RELAXATION for w, v in zip(wanted, last, strict=True)]
-    speed = math.sqrt(_dot(last, last))
+    speed = math.sqrt(vdot(last, last))
     heading = tuple(v / speed for v in last) if speed > 0.0 else None
     for b in bodies:
         diff = [a - c for a, c in zip(here, b.centre, strict=True)]
-        dist = math.sqrt(_dot(diff, diff))
+        dist = math.sqrt(vdot(diff, diff))
         gap = dist - radius - b.radius
         if dist == 0.0 or gap > PUSH_REACH:
             continue
@@ -247,17 +231,17 @@ def _person_velocity(
             size = PUSH * math.exp(-gap / PUSH_RANGE)
         side = 0.0
         if heading is not None:  # what lies ahead (away points back at the person) counts more
-            ahead = -_dot(heading, away)
+            ahead = -vdot(heading, away)
             size *= BEHIND + (1.0 - BEHIND) * (1.0 + ahead) / 2.0
             side = KEEP_RIGHT * size * max(ahead, 0.0)
         for c in range(len(force)):
             force[c] += size * away[c]
         if side and heading is not None:
-            right = _right_of(heading)
+            right = right_of(heading)
             for c in range(len(force)):
                 force[c] += side * right[c]
     velocity = [v + dt * f for v, f in zip(last, force, strict=True)]
-    size = math.sqrt(_dot(velocity, velocity))
+    size = math.sqrt(vdot(velocity, velocity))
     if size > m.u_max:
         velocity = [v * (m.u_max / size) for v in velocity]
     return tuple(velocity), leg

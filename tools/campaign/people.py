@@ -17,6 +17,7 @@ against the field without people; the filter's activity and stalls.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import zlib
@@ -26,6 +27,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from shoal.bus.geometry import segment_distance
 from shoal.bus.path import path_position
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.simulator import simulate
@@ -218,15 +220,9 @@ def _fits(
             return False
         if blind:
             far = start + (goal - start) * (blind / float(np.linalg.norm(goal - start)))
-            if _segment_gap(c, start, far) <= room:
+            if segment_distance(c, start, far) <= room:
                 return False
     return True
-
-
-def _segment_gap(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    ab = b - a
-    t = min(1.0, max(0.0, float((point - a) @ ab) / float(ab @ ab)))
-    return float(np.linalg.norm(point - (a + t * ab)))
 
 
 def time_to_goal(s: Scenario, traj: Trajectory) -> float | None:
@@ -275,7 +271,7 @@ def run_people_task(task: PeopleTask) -> PeopleOutcome:
         seconds=time.process_time() - started,
     )
     if touches or not success or summary.collisions:
-        outcome = PeopleOutcome(**{**outcome.__dict__, "source": crowded.source})
+        outcome = dataclasses.replace(outcome, source=crowded.source)
     return outcome
 
 
