@@ -18,7 +18,7 @@ from shoal.agent.controller import Controller
 from shoal.bus.geometry import FloatArray
 from shoal.bus.types import AgentState
 from shoal.world.field import Field
-from shoal.world.kinematics import actuate, integrate, sense_all
+from shoal.world.kinematics import actuate, integrate
 from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
@@ -53,10 +53,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     params = scenario.params()
     positions = scenario.initial_positions
     for k in range(scenario.steps):
-        crowd = field.plan(crowd, positions)
-        sensings = sense_all(
-            k, positions, field.centres, field.radii, d, ids=field.ids, movers=field.sensed(crowd)
-        )
+        crowd, sensings = field.sense(k, positions, crowd, d)
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import Mover, Vector
+from shoal.bus.types import Mover, Sensing, Vector
+from shoal.world.kinematics import sense_all
 from shoal.world.movers import Body, Motion, MoverState, advance, plan, start
 from shoal.world.scenario import Scenario
 
@@ -64,6 +65,19 @@ class Field:
         return plan(
             self.motions, self.mover_radii, state, agents, self.agent_radius, self.standing, self.dt
         )
+
+    def sense(
+        self, tick: int, positions: FloatArray, state: MoverState, sensing_radius: float
+    ) -> tuple[MoverState, list[Sensing]]:
+        """The start of a tick, for the world and the reference alike: the moving obstacles'
+        velocities over it (:meth:`plan`), then every agent's sensing of the standing and the
+        moving obstacles and the other agents."""
+        state = self.plan(state, positions)
+        sensings = sense_all(
+            tick, positions, self.centres, self.radii, sensing_radius,
+            ids=self.ids, movers=self.sensed(state),
+        )  # fmt: skip
+        return state, sensings
 
     def advance(self, state: MoverState) -> MoverState:
         return advance(state, self.dt) if self.moving else state

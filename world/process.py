@@ -1,6 +1,6 @@
 """The world process: the lockstep clock, kinematics and sensing for every agent, over Zenoh.
 
-A thin loop around :func:`shoal.world.kinematics.sense_all` and
+A thin loop around :meth:`shoal.world.field.Field.sense` and
 :func:`shoal.world.kinematics.integrate`:
 each tick it sends every live agent its sensing, waits until every live agent's command for the
 tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
@@ -28,7 +28,7 @@ from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
 from shoal.world.field import Field
-from shoal.world.kinematics import actuate, integrate, sense_all
+from shoal.world.kinematics import actuate, integrate
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
@@ -149,11 +149,7 @@ class World(Declarations):
         )
         for k in range(s.steps):
             clock.sent(k)
-            crowd = field.plan(crowd, positions)
-            sensings = sense_all(
-                k, positions, field.centres, field.radii, s.control.sensing_radius,
-                ids=field.ids, movers=field.sensed(crowd),
-            )  # fmt: skip
+            crowd, sensings = field.sense(k, positions, crowd, s.control.sensing_radius)
             for i in sorted(self.alive):
                 self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
             self._collect(k, clock)
