@@ -84,8 +84,8 @@ def test_a_solver_that_skips_the_multiplier_test_is_caught(monkeypatch: pytest.M
     point) gives a feasible but farther answer when it is the first accepted."""
 
     def no_lambda_check(nominal: Vector, chosen: list[Row], dt: float) -> Vector | None:
-        gram = [[safety._dot(a.normal, b.normal) for b in chosen] for a in chosen]
-        rhs = [r.bound / dt - safety._dot(r.normal, nominal) for r in chosen]
+        gram = [[safety.vdot(a.normal, b.normal) for b in chosen] for a in chosen]
+        rhs = [r.bound / dt - safety.vdot(r.normal, nominal) for r in chosen]
         lam = safety._solve(gram, rhs)
         if lam is None:
             return None
