@@ -1,23 +1,24 @@
 """The collision-course flag Ω (11), Remark 4, and the evasive offset u^o of Section 3.
 
-Obstacles are circles (spheres in 3-D): centres (m, dim) and radii (m,) in metres. ``heading`` is
-the agent's filtered velocity (m/s); the ray of (11) starts at the agent and runs along it.
-The guard radius of obstacle j is r_j + ρ, ρ the safety margin.
+Obstacles are circles (spheres in 3-D): centres and radii in metres. ``heading`` is the agent's
+filtered velocity (m/s); the ray of (11) starts at the agent and runs along it. The guard radius
+of obstacle j is r_j + ρ, ρ the safety margin. Vectors are plain-float tuples (arrays are
+accepted): this runs for every agent every tick, where a numpy call on a 2-vector costs more
+than its arithmetic; the operations and their order are numpy's, so the bits are too.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
-from shoal.bus.geometry import FloatArray, dot, norm
+from shoal.bus.geometry import PointsLike, Vector, VectorLike, dot, norm, scale, sub
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
 
 
-def ray_distance(origin: FloatArray, heading: FloatArray, centre: FloatArray) -> float:
+def ray_distance(origin: VectorLike, heading: VectorLike, centre: VectorLike) -> float:
     """d_ij: distance from ``centre`` to the ray from ``origin`` along ``heading``, m.
 
     Remark 4: inf (the paper's D̄) unless the obstacle is strictly ahead (an acute angle
@@ -26,33 +27,39 @@ def ray_distance(origin: FloatArray, heading: FloatArray, centre: FloatArray) ->
     speed = norm(heading)
     if speed < _STILL:
         return math.inf
-    unit = heading / speed
-    to_centre = centre - origin
+    unit = [h / speed for h in heading]
+    to_centre = sub(centre, origin)
     along = dot(to_centre, unit)
     if along <= 0.0:
         return math.inf
-    return norm(to_centre - along * unit)
+    return norm(sub(to_centre, scale(along, unit)))
 
 
-def _left_of(unit: FloatArray) -> FloatArray:
-    """A unit vector perpendicular to ``unit``, chosen deterministically (left in the plane)."""
-    if unit.shape[0] == 2:
-        return np.array([-unit[1], unit[0]])
-    axis = np.zeros(unit.shape[0])
-    axis[int(np.argmin(np.abs(unit)))] = 1.0
-    side = np.cross(axis, unit) if unit.shape[0] == 3 else axis - dot(axis, unit) * unit
-    return np.asarray(side / norm(side), dtype=np.float64)
+def _left_of(unit: VectorLike) -> Vector:
+    """A unit vector perpendicular to ``unit``, chosen deterministically (left in the plane;
+    in 3-D the cross product of the axis ``unit`` is least along with ``unit``)."""
+    if len(unit) == 2:
+        return (-unit[1], unit[0])
+    least = min(range(len(unit)), key=lambda k: abs(unit[k]))  # first of equals, as argmin
+    axis = [1.0 if k == least else 0.0 for k in range(len(unit))]
+    if len(unit) == 3:
+        (a0, a1, a2), (u0, u1, u2) = axis, unit
+        side: Vector = (a1 * u2 - a2 * u1, a2 * u0 - a0 * u2, a0 * u1 - a1 * u0)
+    else:
+        side = sub(axis, scale(dot(axis, unit), unit))
+    size = norm(side)
+    return tuple([x / size for x in side])
 
 
 def evasive_offset(
-    origin: FloatArray,
-    heading: FloatArray,
-    centre: FloatArray,
+    origin: VectorLike,
+    heading: VectorLike,
+    centre: VectorLike,
     radius: float,
     *,
     safety_margin: float,
     epsilon: float,
-) -> FloatArray:
+) -> Vector:
     """u^o: perpendicular to ``heading``, from the obstacle towards the ray, (dim,) in m.
 
     The paper's magnitude r_j - d_ij would leave the new path touching the obstacle. Here it is
@@ -60,14 +67,16 @@ def evasive_offset(
     so ε covers the chattering band and ρ is the clearance kept. Zero if the ray already passes
     that far out. A ray through the centre (d_ij = 0) is pushed to the left of the heading.
     """
-    unit = heading / norm(heading)
-    to_centre = centre - origin
-    foot = origin + dot(to_centre, unit) * unit
-    away = foot - centre
+    size = norm(heading)
+    unit = [h / size for h in heading]
+    to_centre = sub(centre, origin)
+    along = dot(to_centre, unit)
+    foot = [o + along * u for o, u in zip(origin, unit, strict=True)]
+    away = sub(foot, centre)
     d = norm(away)
-    direction = away / d if d > 1e-12 else _left_of(unit)
+    direction = [a / d for a in away] if d > 1e-12 else _left_of(unit)
     magnitude = max(0.0, radius + safety_margin + epsilon - d)
-    return np.asarray(magnitude * direction, dtype=np.float64)
+    return scale(magnitude, direction)
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,13 +84,13 @@ class Evasion:
     """An evasive episode: the obstacle evaded and u^o, set at τ_i (grown by ``_ratchet``)."""
 
     obstacle_id: int
-    centre: FloatArray
+    centre: Vector
     radius: float
-    offset: FloatArray
+    offset: Vector
 
 
 def _ratchet(
-    held: Evasion, position: FloatArray, heading: FloatArray, clearance: float, cap: float
+    held: Evasion, position: Vector, heading: Vector, clearance: float, cap: float
 ) -> Evasion:
     """Grow u^o (never shrink it) while the ray still passes within r_j + ρ + ε of the obstacle,
     up to ``cap`` × (r_j + ρ + ε).
@@ -101,15 +110,15 @@ def _ratchet(
     most = cap * (held.radius + clearance)
     if size >= most:
         return held
-    grown = held.offset * (min(size + short, most) / size)
+    grown = scale(min(size + short, most) / size, held.offset)
     return Evasion(held.obstacle_id, held.centre, held.radius, grown)
 
 
 def _triggers(
-    position: FloatArray,
-    heading: FloatArray,
-    centres: FloatArray,
-    radii: FloatArray,
+    position: Vector,
+    heading: Vector,
+    centres: Sequence[Vector],
+    radii: VectorLike,
     *,
     trigger_radius: float,
     safety_margin: float,
@@ -117,21 +126,21 @@ def _triggers(
 ) -> list[tuple[float, int]]:
     """(distance to centre, index) of every obstacle that fires the first clause of (11)."""
     hits = []
-    for k in range(centres.shape[0]):
-        dist = norm(position - centres[k])
+    for k, (centre, radius) in enumerate(zip(centres, radii, strict=True)):
+        dist = norm(sub(position, centre))
         if dist > trigger_radius:
             continue
-        if ray_distance(position, heading, centres[k]) <= radii[k] + safety_margin + epsilon:
+        if ray_distance(position, heading, centre) <= radius + safety_margin + epsilon:
             hits.append((dist, k))
     return sorted(hits)
 
 
 def collision_course(
-    position: FloatArray,
-    heading: FloatArray,
+    position: VectorLike,
+    heading: VectorLike,
     obstacle_ids: tuple[int, ...],
-    centres: FloatArray,
-    radii: FloatArray,
+    centres: PointsLike,
+    radii: VectorLike,
     held: Evasion | None,
     *,
     trigger_radius: float,
@@ -151,6 +160,36 @@ def collision_course(
     episode holds, u^o only grows if the ray still passes too close (see ``_ratchet``), to at
     most ``ratchet_cap`` × (r_j + ρ + ε).
     """
+    return _course(
+        _plain(position),
+        _plain(heading),
+        obstacle_ids,
+        [_plain(c) for c in centres],
+        _plain(radii),
+        held,
+        trigger_radius=trigger_radius,
+        sensing_radius=sensing_radius,
+        safety_margin=safety_margin,
+        epsilon=epsilon,
+        ratchet_cap=ratchet_cap,
+    )
+
+
+def _course(
+    position: Vector,
+    heading: Vector,
+    obstacle_ids: tuple[int, ...],
+    centres: Sequence[Vector],
+    radii: Vector,
+    held: Evasion | None,
+    *,
+    trigger_radius: float,
+    sensing_radius: float,
+    safety_margin: float,
+    epsilon: float,
+    ratchet_cap: float,
+) -> Evasion | None:
+    """:func:`collision_course` on plain-float tuples."""
     hits = _triggers(
         position,
         heading,
@@ -161,9 +200,10 @@ def collision_course(
         epsilon=epsilon,
     )
     if held is not None:
-        dist = norm(position - held.centre)
+        from_centre = sub(position, held.centre)
+        dist = norm(from_centre)
         speed = norm(heading)
-        along = dot(position - held.centre, heading) / speed if speed > _STILL else 0.0
+        along = dot(from_centre, heading) / speed if speed > _STILL else 0.0
         if dist <= sensing_radius and along < held.radius + safety_margin:
             nearer = [k for d, k in hits if d < dist and obstacle_ids[k] != held.obstacle_id]
             if not nearer:
@@ -172,11 +212,13 @@ def collision_course(
         return None
     _, k = hits[0]
     offset = evasive_offset(
-        position, heading, centres[k], float(radii[k]), safety_margin=safety_margin, epsilon=epsilon
+        position, heading, centres[k], radii[k], safety_margin=safety_margin, epsilon=epsilon
     )
-    return Evasion(
-        obstacle_id=obstacle_ids[k],
-        centre=centres[k].copy(),
-        radius=float(radii[k]),
-        offset=offset,
-    )
+    return Evasion(obstacle_id=obstacle_ids[k], centre=centres[k], radius=radii[k], offset=offset)
+
+
+def _plain(v: VectorLike) -> Vector:
+    """``v`` as a tuple of Python floats (a tuple of floats comes back as it is)."""
+    if type(v) is tuple:
+        return v
+    return tuple(v.tolist()) if hasattr(v, "tolist") else tuple(float(x) for x in v)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-from shoal.bus.geometry import FloatArray, dot, norm
+from shoal.bus.geometry import PointsLike, VectorLike, add, dot, norm, scale, sub
 
 # A passage is only entered if the heading crosses the gap at least this steeply:
 # cos of the angle between the heading and the line through the two centres.
@@ -40,13 +40,13 @@ def consensus_round(own: float, received: Iterable[float]) -> float:
 
 
 def passage_bid(
-    position: FloatArray,
-    heading: FloatArray,
-    centres: FloatArray,
-    radii: FloatArray,
+    position: VectorLike,
+    heading: VectorLike,
+    centres: PointsLike,
+    radii: VectorLike,
     *,
     formation_radius: float,
-    slot_shift: FloatArray,
+    slot_shift: VectorLike,
     safety_margin: float,
     epsilon: float,
     sigma_max: float,
@@ -72,26 +72,28 @@ def passage_bid(
     speed = norm(heading)
     if speed < (BID_SPEED if strict else 1e-9) or formation_radius <= 0.0:
         return 1.0
-    unit = heading / speed
+    unit = [h / speed for h in heading]
     bid = 1.0
-    m = centres.shape[0]
+    m = len(centres)
     for j in range(m):
         for k in range(j + 1, m):
-            span = centres[k] - centres[j]
+            span = sub(centres[k], centres[j])
             length = norm(span)
             usable = length - radii[j] - radii[k] - 2.0 * (safety_margin + epsilon)
             if usable >= 2.0 * formation_radius or length == 0.0:
                 continue  # the whole formation fits with its margins, or degenerate
-            across = span / length
+            across = [x / length for x in span]
             if abs(dot(unit, across)) > _MAX_ALONG_COS:
                 continue  # moving along the pair, not through it
-            through = unit - dot(unit, across) * across
-            through /= norm(through)
-            mid = (centres[j] + centres[k]) / 2.0
-            if strict and abs(dot(position - mid, across)) > length / 2.0:
+            through = sub(unit, scale(dot(unit, across), across))
+            size = norm(through)
+            through = tuple([x / size for x in through])
+            mid = [x / 2.0 for x in add(centres[j], centres[k])]
+            from_mid = sub(position, mid)
+            if strict and abs(dot(from_mid, across)) > length / 2.0:
                 continue  # beside the pair, not in line with its gap
             far = max(radii[j], radii[k]) + safety_margin + epsilon
-            ahead = min(dot(position - mid, through), dot(position + slot_shift - mid, through))
+            ahead = min(dot(from_mid, through), dot(sub(add(position, slot_shift), mid), through))
             if ahead >= far:
                 continue  # through, and so is the slot it will expand to
             need = sigma_max if usable <= 0 else 2.0 * formation_radius / usable

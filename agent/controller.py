@@ -23,9 +23,9 @@ import numpy as np
 from shoal.agent.collision import Evasion, collision_course, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
-from shoal.agent.formation import consensus_error, evasive_error, shaped, velocity
+from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import detour, lead
-from shoal.bus.geometry import FloatArray, segment_distance
+from shoal.bus.geometry import FloatArray, Vector, VectorLike, segment_distance, shaped_vector, sub
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
 from shoal.bus.types import (
@@ -51,7 +51,7 @@ class Memory:
     route : a leader's waypoints still to go (with the safety filter), else None.
     """
 
-    heading: FloatArray
+    heading: Vector
     evasion: Evasion | None
     bid: float
     sigma_consensus: float
@@ -80,39 +80,40 @@ class Controller:
         _validate(config)
         self.config = config
         self.params = config.params
-        self.offset = np.asarray(config.offset, dtype=np.float64)
-        self.neighbour_offsets = np.asarray(config.neighbour_offsets, dtype=np.float64).reshape(
-            len(config.senses), config.dim
-        )
+        self.filtered = self.params.filtered
+        self.offset = tuple(float(x) for x in config.offset)
+        self.neighbour_offsets = tuple(tuple(float(x) for x in d) for d in config.neighbour_offsets)
         tau = self.params.heading_tau
         self.smoothing = 1.0 if tau <= 0 else 1.0 - math.exp(-config.dt / tau)
         self.listens_to = tuple(sorted(set(config.senses) | set(config.talks_to)))
-        self._shapes: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
+        self._shapes: dict[tuple[float, float], tuple[Vector, tuple[Vector, ...]]] = {}
         self.busy_ticks = round(BUSY_TIME / config.dt)
         self.busy_error = BUSY_BAND * self.params.beta * config.dt
         self.calm_ticks = math.ceil(CALM_TAUS * tau / config.dt)
 
-    def _shaped(self, sigma: float, theta: float) -> tuple[FloatArray, FloatArray]:
+    def _shaped(self, sigma: float, theta: float) -> tuple[Vector, tuple[Vector, ...]]:
         """R(θ)δ/σ of this agent and of its sensed neighbours, computed once per (σ, θ)."""
         key = (sigma, theta)
-        if key not in self._shapes:
+        found = self._shapes.get(key)
+        if found is None:
             if len(self._shapes) > 32:
                 self._shapes.clear()
-            self._shapes[key] = (
-                shaped(self.offset, sigma=sigma, theta=theta),
-                shaped(self.neighbour_offsets, sigma=sigma, theta=theta),
+            found = (
+                shaped_vector(self.offset, sigma=sigma, theta=theta),
+                tuple(shaped_vector(d, sigma=sigma, theta=theta) for d in self.neighbour_offsets),
             )
-        return self._shapes[key]
+            self._shapes[key] = found
+        return found
 
     def start(self) -> Memory:
         """The memory before tick 0: at rest, not evading, bidding 1, unscaled; a leader with
         the safety filter and waypoints has all of them but the first (where it starts) to go."""
         path = self.config.path
         route = None
-        if self.params.filtered and isinstance(path, Waypoints):
+        if self.filtered and isinstance(path, Waypoints):
             route = tuple(np.asarray(p, dtype=np.float64) for p in path.points[1:])
         return Memory(
-            heading=np.zeros(self.config.dim),
+            heading=(0.0,) * self.config.dim,
             evasion=None,
             bid=1.0,
             sigma_consensus=1.0,
@@ -132,21 +133,21 @@ class Controller:
         """First half of a tick: Ω_i (11) and the σ bid; returns the state for the neighbours."""
         p = self.params
         tick = sensing.tick
-        position = np.asarray(sensing.position, dtype=np.float64)
-        centres = np.asarray(sensing.obstacle_centres, dtype=np.float64).reshape(
-            len(sensing.obstacle_ids), self.config.dim
+        position, centres, radii = (
+            sensing.position,
+            sensing.obstacle_centres,
+            sensing.obstacle_radii,
         )
-        radii = np.asarray(sensing.obstacle_radii, dtype=np.float64)
         bid, agreed = memory.bid, memory.sigma_consensus
         if epoch_start(tick, p.rounds):
             if tick > 0:
                 agreed = memory.bid
             demanded, theta = self.shape(tick, 1.0)
-            slot_shift = (
-                self._shaped(demanded, theta)[0]
-                - self._shaped(demanded * memory.sigma_consensus, theta)[0]
+            slot_shift = sub(
+                self._shaped(demanded, theta)[0],
+                self._shaped(demanded * memory.sigma_consensus, theta)[0],
             )
-            manoeuvring = p.filtered and (
+            manoeuvring = self.filtered and (
                 0 < memory.busy <= self.busy_ticks
                 or (memory.busy == 0 and memory.calm < self.calm_ticks)
             )
@@ -163,7 +164,7 @@ class Controller:
                     safety_margin=p.safety_margin,
                     epsilon=p.epsilon,
                     sigma_max=p.sigma_max,
-                    strict=p.filtered,
+                    strict=self.filtered,
                 )
             )
         evasion = None
@@ -179,7 +180,7 @@ class Controller:
                 sensing_radius=p.sensing_radius,
                 safety_margin=p.safety_margin,
                 epsilon=p.epsilon,
-                ratchet_cap=RATCHET_CAP if p.filtered else math.inf,
+                ratchet_cap=RATCHET_CAP if self.filtered else math.inf,
             )
         memory = Memory(
             memory.heading,
@@ -212,6 +213,7 @@ class Controller:
         """
         cfg, p = self.config, self.params
         evasion, lag, route = memory.evasion, 0.0, memory.route
+        v: VectorLike
         if route is not None and isinstance(cfg.path, Waypoints):
             v, route = self._lead(route, sensing, cfg.path.speed)
         elif cfg.path is not None:
@@ -220,7 +222,7 @@ class Controller:
             v, evasion, lag = self._follow(memory, sensing, neighbours)
         out = tuple(float(c) for c in v)
         filtered = False
-        if p.filtered:
+        if self.filtered:
             result = safe_velocity(
                 out,
                 sensing,
@@ -229,11 +231,10 @@ class Controller:
                 margin=p.safety_margin,
                 half_separation=p.separation / 2.0,
                 speed_limit=p.speed_limit,
-                previous=tuple(float(c) for c in memory.heading),
+                previous=memory.heading,
             )
             if result.active:
                 out, filtered = result.velocity, True
-                v = np.asarray(out, dtype=np.float64)
         epoch = epoch_of(sensing.tick, p.rounds)
         bids = [
             neighbours[j].bid
@@ -241,10 +242,11 @@ class Controller:
             if j in neighbours and epoch_of(neighbours[j].tick, p.rounds) == epoch
         ]  # realtime: a state from the last epoch carries a value Algorithm 1 has reset
         busy = 0
-        if p.filtered and (evasion is not None or filtered or lag > self.busy_error):
+        if self.filtered and (evasion is not None or filtered or lag > self.busy_error):
             busy = memory.busy + 1
+        k = self.smoothing
         memory = Memory(
-            heading=memory.heading + self.smoothing * (v - memory.heading),
+            heading=tuple([h + k * (x - h) for h, x in zip(memory.heading, out, strict=True)]),
             evasion=evasion,
             bid=consensus_round(memory.bid, bids),
             sigma_consensus=memory.sigma_consensus,
@@ -278,7 +280,7 @@ class Controller:
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]
-    ) -> tuple[FloatArray, Evasion | None, float]:
+    ) -> tuple[Vector, Evasion | None, float]:
         """The nominal v̂_i of a follower, the evasion to carry into the next tick, and (with
         the safety filter) how far the plain law's set-point s_i − e_i/deg_i, where (1) without
         u^o pulls the agent, is per coordinate: ‖e_i‖∞/deg_i (m; 0 without neighbours).
@@ -306,23 +308,20 @@ class Controller:
         """
         cfg, p = self.config, self.params
         keep = [k for k, j in enumerate(cfg.senses) if j in neighbours and not neighbours[j].omega]
-        if p.filtered and not keep:  # every neighbour evades: follow them all the same
+        if self.filtered and not keep:  # every neighbour evades: follow them all the same
             keep = [k for k, j in enumerate(cfg.senses) if j in neighbours]
         sigma, theta = self.shape(sensing.tick, memory.sigma_consensus)
-        positions = np.asarray(
-            [neighbours[cfg.senses[k]].position for k in keep], dtype=np.float64
-        ).reshape(len(keep), cfg.dim)
+        positions = [neighbours[cfg.senses[k]].position for k in keep]
         own, theirs = self._shaped(sigma, theta)
-        error = consensus_error(
-            np.asarray(sensing.position, dtype=np.float64), own, positions, theirs[keep]
-        )
+        position = sensing.position
+        error = consensus_error(position, own, positions, [theirs[k] for k in keep])
         target, lag = None, 0.0
-        if p.filtered and keep:
-            target = np.asarray(sensing.position, dtype=np.float64) - error / len(keep)
-            lag = float(np.abs(error).max()) / len(keep)
+        if self.filtered and keep:
+            degree = len(keep)
+            target = tuple([x - e / degree for x, e in zip(position, error, strict=True)])
+            lag = max([abs(e) for e in error]) / degree
         held = memory.evasion
         if held is not None and target is not None:
-            position = np.asarray(sensing.position, dtype=np.float64)
             guard = held.radius + p.safety_margin + p.epsilon
             if segment_distance(held.centre, position, target) > guard and (
                 lag > self.busy_error or ray_distance(position, memory.heading, held.centre) > guard

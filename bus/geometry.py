@@ -16,28 +16,51 @@ every machine; elementwise numpy (+, −, ×, ÷, sqrt) is exact and needs no su
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
+Vector = tuple[float, ...]  # a plain-float vector: the per-tick arithmetic's (see above)
+VectorLike = Sequence[float] | FloatArray  # a (dim,) vector either way
+PointsLike = Sequence[Sequence[float]] | FloatArray  # (k, dim) vectors either way
 
 
-def dot(a: FloatArray, b: FloatArray) -> float:
-    """a · b of two (dim,) vectors, summed left to right in Python floats: the same bits on
-    every machine (see the module's docstring)."""
-    x, y = a.tolist(), b.tolist()
+def dot(a: VectorLike, b: VectorLike) -> float:
+    """a · b of two (dim,) vectors (arrays or plain-float tuples), summed left to right from
+    the first product in Python floats: the same bits on every machine (see the module's
+    docstring)."""
+    x = a.tolist() if isinstance(a, np.ndarray) else a
+    y = b.tolist() if isinstance(b, np.ndarray) else b
+    if len(x) == 2:
+        return x[0] * y[0] + x[1] * y[1]
     s = x[0] * y[0]
     for k in range(1, len(x)):
         s += x[k] * y[k]
-    return float(s)
+    return s
 
 
-def norm(v: FloatArray) -> float:
+def norm(v: VectorLike) -> float:
     """‖v‖ of a (dim,) vector: sqrt(v · v) with :func:`dot`; portable where np.linalg.norm is
     not."""
     return math.sqrt(dot(v, v))
+
+
+def sub(a: VectorLike, b: VectorLike) -> Vector:
+    """a − b of two plain-float vectors, as a tuple (elementwise: the same bits as numpy's)."""
+    return tuple(map(operator.sub, a, b))
+
+
+def add(a: VectorLike, b: VectorLike) -> Vector:
+    """a + b of two plain-float vectors, as a tuple."""
+    return tuple(map(operator.add, a, b))
+
+
+def scale(k: float, v: VectorLike) -> Vector:
+    """k · v of a plain-float vector, as a tuple."""
+    return tuple([k * x for x in v])
 
 
 def vdot(a: Sequence[float], b: Sequence[float]) -> float:
@@ -61,12 +84,14 @@ def right_of(heading: Sequence[float]) -> tuple[float, ...]:
     return (hy / size, -hx / size, 0.0)
 
 
-def segment_distance(point: FloatArray, a: FloatArray, b: FloatArray) -> float:
-    """Distance from ``point`` to the segment from ``a`` to ``b``, m."""
-    ab = b - a
+def segment_distance(point: VectorLike, a: VectorLike, b: VectorLike) -> float:
+    """Distance from ``point`` to the segment from ``a`` to ``b``, m (arrays or tuples)."""
+    if isinstance(point, np.ndarray) or isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        point, a, b = np.asarray(point).tolist(), np.asarray(a).tolist(), np.asarray(b).tolist()
+    ab = sub(b, a)
     length2 = dot(ab, ab)
-    t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, dot(point - a, ab) / length2))
-    return norm(point - (a + t * ab))
+    t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, dot(sub(point, a), ab) / length2))
+    return norm(sub(point, add(a, scale(t, ab))))
 
 
 def rotation(theta: float, dim: int) -> FloatArray:
@@ -91,3 +116,10 @@ def shaped(offsets: FloatArray, *, sigma: float, theta: float) -> FloatArray:
     out[..., 0] = x * c + y * -s
     out[..., 1] = x * s + y * c
     return out / sigma
+
+
+def shaped_vector(offset: Sequence[float], *, sigma: float, theta: float) -> Vector:
+    """:func:`shaped` of one (dim,) offset, in plain floats, to the same bits."""
+    c, s = math.cos(theta), math.sin(theta)
+    x, y = offset[0], offset[1]
+    return ((x * c + y * -s) / sigma, (x * s + y * c) / sigma, *[z / sigma for z in offset[2:]])

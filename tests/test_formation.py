@@ -146,7 +146,7 @@ def _settle(
     for _ in range(steps):
         e = consensus_error(x, offsets[1], positions[others], offsets[others])
         arg = evasive_error(e, len(others), u_o)
-        x = x + dt * velocity(arg, alpha=1.0, beta=0.5, boundary_layer=phi)
+        x = x + dt * np.asarray(velocity(arg, alpha=1.0, beta=0.5, boundary_layer=phi))
     return x
 
 

@@ -7,6 +7,7 @@ agent applied at tick k: the laws and the bounds of Theorem 1 / Remark 3 work pe
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -77,21 +78,24 @@ def holds(traj: Trajectory) -> list[float]:
 
 
 def formation_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
-    """(T, n-1) formation error of every follower at the start of every tick, m."""
+    """(T, n-1) formation error of every follower at the start of every tick, m.
+
+    The demanded offsets are :func:`~shoal.bus.geometry.shaped`'s, elementwise over all ticks
+    at once: the same operations, so the same bits; cos and sin by ``math`` on each distinct θ
+    (numpy's may be vectorised differently on another CPU)."""
     offsets = scenario.offsets[1:]
+    ticks = traj.ticks
     rel = traj.positions[:-1, 1:] - traj.positions[:-1, :1]
-    out = np.empty(rel.shape[:2])
-    for k in range(traj.ticks):
-        desired = np.stack(
-            [
-                shaped(
-                    offsets[i], sigma=float(traj.sigma[k, i + 1]), theta=float(traj.theta[k, i + 1])
-                )
-                for i in range(offsets.shape[0])
-            ]
-        )
-        out[k] = np.abs(rel[k] - desired).max(axis=1)
-    return out
+    theta, sigma = traj.theta[:ticks, 1:], traj.sigma[:ticks, 1:]
+    values, where = np.unique(theta, return_inverse=True)
+    c = np.array([math.cos(t) for t in values.tolist()])[where].reshape(theta.shape)
+    s = np.array([math.sin(t) for t in values.tolist()])[where].reshape(theta.shape)
+    desired = np.broadcast_to(offsets, rel.shape).copy()
+    x, y = offsets[:, 0], offsets[:, 1]
+    desired[..., 0] = x * c + y * -s
+    desired[..., 1] = x * s + y * c
+    desired /= sigma[..., None]
+    return np.asarray(np.abs(rel - desired).max(axis=2), dtype=np.float64)
 
 
 def clearances(scenario: Scenario, traj: Trajectory) -> FloatArray:
