@@ -32,6 +32,7 @@ from shoal.tools.procs.swarm import Child, Swarm
 from shoal.world.loader import load_scenario
 
 PYTHON = [sys.executable, "-m", "shoal.tools"]
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
@@ -267,3 +268,17 @@ def cpu_hogs(count: int, seconds: float) -> Iterator[None]:
         for h in hogs:
             h.kill()
             h.wait()
+
+
+@pytest.fixture(scope="session")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A non-editable install of this checkout, as a user's ``pip install .`` builds it (its
+    per-tick modules compiled where a C compiler is: setup.py); no dependencies: this venv has
+    them. Shared by tests/test_install.py and tests/test_compiled.py."""
+    target = tmp_path_factory.mktemp("site")
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
+         "--target", str(target), str(ROOT)],
+        check=True, cwd=tmp_path_factory.mktemp("build"), timeout=600,
+    )  # fmt: skip
+    return target

@@ -16,18 +16,6 @@ from shoal.world.loader import load_scenario
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture(scope="module")
-def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A non-editable install of this checkout (no dependencies: this venv has them)."""
-    target = tmp_path_factory.mktemp("site")
-    subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-         "--target", str(target), str(ROOT)],
-        check=True, cwd=tmp_path_factory.mktemp("build"), timeout=300,
-    )  # fmt: skip
-    return target
-
-
 @pytest.fixture
 def crowded(tmp_path: Path) -> Path:
     """A user's project folder with packages of the names shoal used to install."""

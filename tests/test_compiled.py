@@ -1,0 +1,81 @@
+"""The per-tick modules compiled by mypyc (setup.py) give the interpreter's bits: the built-ins
+and a sample of campaign fields, simulated by an installed, compiled shoal, have the digests
+this checkout's pure-Python modules give them (docs/performance.md, "Compiled")."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+from shoal.tools.simulator import simulate
+from shoal.world.loader import builtin_names, load_scenario
+
+COMPILED = [
+    "shoal.bus.geometry",
+    "shoal.bus.safety",
+    "shoal.agent.formation",
+    "shoal.agent.collision",
+    "shoal.agent.consensus",
+    "shoal.agent.controller",
+    "shoal.world.kinematics",
+]
+
+# Digests of every built-in and of campaign fields (inside, filter on; around obstacles and
+# crossing) by whichever shoal is imported; JSON on stdout.
+DIGESTS = """
+import json, sys
+from shoal.tools.campaign.fields import FieldOptions, make_field
+from shoal.tools.simulator import simulate
+from shoal.world.loader import builtin_names, load_scenario
+out = {name: simulate(load_scenario(name)).digest() for name in builtin_names()}
+for base in ("obstacles", "crossing"):
+    for seed in (0, 1, 2):
+        field = make_field(load_scenario(base), seed, "inside", FieldOptions())
+        out[f"{base}/{seed}"] = simulate(field).digest()
+json.dump(out, sys.stdout)
+"""
+
+
+def _compiler() -> bool:
+    cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
+    return shutil.which(cc.split()[0]) is not None
+
+
+def _run(code: str, site: Path | None) -> str:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    if site is not None:
+        env["PYTHONPATH"] = str(site)
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600,
+        cwd=Path(__file__).parent,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def test_an_installed_shoal_runs_its_compiled_modules(installed: Path) -> None:
+    """With a C compiler (CI has one) every per-tick module is an extension, and its mypyc
+    runtime lies inside the package; without one, all of them are the Python modules."""
+    files = json.loads(
+        _run(f"import importlib, json; print(json.dumps([importlib.import_module(m).__file__ "
+             f"for m in {COMPILED!r}]))", installed)
+    )  # fmt: skip
+    assert all(f.startswith(str(installed / "shoal")) for f in files), files
+    suffix = ".so" if _compiler() else ".py"
+    assert [Path(f).suffix for f in files] == [suffix] * len(COMPILED), files
+    runtime = sorted(p.name for p in installed.glob("*.so"))
+    assert runtime == [], runtime  # nothing at the top level of site-packages
+
+
+def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
+    compiled = json.loads(_run(DIGESTS, installed))
+    pure = json.loads(_run(DIGESTS, None))
+    assert set(compiled) == {*builtin_names(), *(f"{b}/{k}" for b in ("obstacles", "crossing")
+                                                 for k in range(3))}  # fmt: skip
+    assert compiled == pure
+    assert pure["default"] == simulate(load_scenario("default")).digest()
