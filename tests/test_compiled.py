@@ -79,3 +79,15 @@ def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
                                                  for k in range(3))}  # fmt: skip
     assert compiled == pure
     assert pure["default"] == simulate(load_scenario("default")).digest()
+
+
+def test_the_filter_benchmark_sees_the_compiled_controllers_calls(installed: Path) -> None:
+    """A patch cannot reach a call made within compiled code; ``shoal bench --filter`` records
+    through the controller's source, and finds the same calls as in the pure build."""
+    code = (
+        "import json; from shoal.tools.bench.filter import bench_filter; "
+        "print(json.dumps(bench_filter(repeats=1)))"
+    )
+    compiled, pure = (json.loads(_run(code, site)) for site in (installed, None))
+    assert compiled["active_share"] == pure["active_share"] > 0
+    assert compiled["filter_us_active"] > 0 and compiled["sensed_per_call_median"] > 0
