@@ -41,6 +41,9 @@ COMPILED = [
 ]
 # The mypyc runtime shared by the compiled modules: an extension inside shoal, never top level.
 GROUP = "shoal.compiled"
+# The setuptools commands that build extensions; the others (a PEP 517 backend asks for the
+# build requirements and the metadata first) run without mypyc's type check.
+BUILDS = {"bdist_wheel", "build", "build_ext", "install", "editable_wheel", "develop"}
 
 
 def _stage() -> Path:
@@ -63,6 +66,8 @@ def _why_pure() -> str | None:
         # An editable install runs the sources as they are edited; a compiled module beside
         # them would keep running the code it was built from. SHOAL_COMPILE=1 compiles anyway.
         return "an editable install (SHOAL_COMPILE=1 compiles it too)"
+    if not BUILDS & set(sys.argv):
+        return "this step builds no extension"  # egg_info, dist_info: metadata only
     compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
     if shutil.which(os.environ.get("CC", compiler).split()[0]) is None:
         return f"no C compiler ({compiler})"
@@ -76,7 +81,8 @@ def _why_pure() -> str | None:
 def extensions() -> list[Extension]:
     why = _why_pure()
     if why is not None:
-        print(f"shoal: building the pure-Python modules: {why}", file=sys.stderr)
+        if BUILDS & set(sys.argv):
+            print(f"shoal: building the pure-Python modules: {why}", file=sys.stderr)
         return []
     from mypyc.build import mypycify
 
