@@ -48,3 +48,35 @@ def test_the_filter_benchmark_times_real_calls_idle_and_active() -> None:
     assert 0 < figures["active_share"] < 1  # the field makes the filter act, now and then
     assert figures["filter_us_idle"] > 0 and figures["filter_us_active"] > 0
     assert figures["simulator_us_per_agent_tick"] > figures["filter_us_per_agent_tick"]
+
+
+def test_keeping_up_needs_no_missed_deadline_and_p99_under_one_period() -> None:
+    from shoal.tools.bench.capacity import keeps_up
+
+    assert keeps_up({"missed_deadlines": 0, "latency_p99_ms": 9.9}, 10.0)
+    assert not keeps_up({"missed_deadlines": 0, "latency_p99_ms": 10.0}, 10.0)
+    assert not keeps_up({"missed_deadlines": 1, "latency_p99_ms": 1.0}, 10.0)
+    assert not keeps_up({"missed_deadlines": 0, "latency_p99_ms": None}, 10.0)  # no command
+
+
+@pytest.mark.integration
+def test_capacity_counts_every_missed_deadline_and_stops_at_the_first_failing_size() -> None:
+    """At 10 kHz no command can come back within its 0.1 ms period over a router (the round
+    trip alone takes longer), so both the floor and the real run miss every agent-tick: the
+    figures are counted, not assumed, and the ladder stops at its first size."""
+    from shoal.tools.bench.capacity import capacity
+
+    (row,) = capacity(rates=[10_000.0], ladder=[2, 3], seconds=0.002)
+    assert row["rate_hz"] == 10_000.0 and row["floor"] is None and row["ours"] is None
+    (trial,) = row["trials"]  # 3 agents never tried: 2 already could not keep up
+    assert trial["agents"] == 2
+    for side in ("floor", "ours"):
+        assert trial[side]["missed_deadlines"] == 2 * 20, side
+        assert trial[side]["keeps_up"] is False
+
+
+def test_capacity_options_are_checked() -> None:
+    for args in (["--rates", "fast"], ["--rates", "0"], ["--ladder", "1,5"], ["--seconds", "0"]):
+        result = CliRunner().invoke(main, ["bench", "--capacity", *args])
+        assert result.exit_code == 2, (args, result.output)
+        assert "Invalid value" in result.output, args

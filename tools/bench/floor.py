@@ -10,6 +10,7 @@ and ``shoal run`` do. Payloads carry the tick in their first 4 bytes.
 
 from __future__ import annotations
 
+import math
 import struct
 import time
 from collections import deque
@@ -33,8 +34,18 @@ def tick_of(data: bytes) -> int:
 
 
 def floor_world(
-    session: zenoh.Session, *, run: str, agents: int, ticks: int, sizes: dict[str, int]
+    session: zenoh.Session,
+    *,
+    run: str,
+    agents: int,
+    ticks: int,
+    sizes: dict[str, int],
+    period: float = 0.0,
 ) -> dict[str, float]:
+    """Tick the floor: in lockstep (``period`` 0) each tick ends once every agent's command is
+    in; with a ``period`` (s) each tick ends on the wall clock, as a realtime run's world does
+    (world/process.py's _Clock): a command not in by then is a missed deadline, and the time
+    from sending a tick's sensing to each command of that tick is its latency."""
     keys = Keys(run)
     inbox = Inbox()
     held = [
@@ -54,19 +65,80 @@ def floor_world(
             up.add(a.key)
     announce_ready("floor ticking")  # a benchmark opens its CPU window here
     start = time.monotonic()
-    for k in range(ticks):
-        for i in out:
-            out[i].put(payload(k, sizes["sensing"]))
-        answered: set[int] = set()
-        while len(answered) < agents:
-            a = inbox.wait()
-            sender = agent_of(a.key)
-            if a.kind == "data" and tick_of(a.payload) == k and sender is not None:
-                answered.add(sender)
-        tick_out.put(payload(k, sizes["tick"]))
+    if period > 0:
+        result = _realtime(inbox, out, tick_out, agents, ticks, sizes, period)
+    else:
+        for k in range(ticks):
+            for i in out:
+                out[i].put(payload(k, sizes["sensing"]))
+            answered: set[int] = set()
+            while len(answered) < agents:
+                a = inbox.wait()
+                sender = agent_of(a.key)
+                if a.kind == "data" and tick_of(a.payload) == k and sender is not None:
+                    answered.add(sender)
+            tick_out.put(payload(k, sizes["tick"]))
+        result = {}
     wall = time.monotonic() - start
     del held, token
-    return {"ticks": ticks, "ticks_per_s": ticks / wall}
+    return {"ticks": ticks, "ticks_per_s": ticks / wall, **result}
+
+
+def _realtime(
+    inbox: Inbox,
+    out: dict[int, zenoh.Publisher],
+    tick_out: zenoh.Publisher,
+    agents: int,
+    ticks: int,
+    sizes: dict[str, int],
+    period: float,
+) -> dict[str, float]:
+    sent_at: dict[int, float] = {}
+    heard: dict[int, set[int]] = {}
+    latencies: list[float] = []
+    missed = overruns = 0
+    deadline = time.monotonic()
+    for k in range(ticks):
+        now = time.monotonic()
+        sent_at[k] = now
+        sent_at.pop(k - 64, None)
+        heard.pop(k - 64, None)
+        deadline += period
+        if deadline < now:
+            overruns += 1
+            deadline = now + period
+        for i in out:
+            out[i].put(payload(k, sizes["sensing"]))
+        while (left := deadline - time.monotonic()) > 0:
+            a = inbox.get(timeout=left)
+            if a is None:
+                break
+            sender = agent_of(a.key)
+            if a.kind != "data" or sender is None:
+                continue
+            t = tick_of(a.payload)
+            if t in sent_at and sender not in heard.setdefault(t, set()):
+                heard[t].add(sender)
+                latencies.append(time.monotonic() - sent_at[t])
+        missed += agents - len(heard.get(k, ()))
+        tick_out.put(payload(k, sizes["tick"]))
+    lat = sorted(latencies)
+    return {
+        "latency_p50_ms": round(_quantile(lat, 0.50) * 1e3, 3),
+        "latency_p99_ms": round(_quantile(lat, 0.99) * 1e3, 3),
+        "missed_deadlines": missed,
+        "overruns": overruns,
+    }
+
+
+def _quantile(ordered: list[float], q: float) -> float:
+    """Linear-interpolated quantile of sorted values (numpy's default), nan for none."""
+    if not ordered:
+        return math.nan
+    x = q * (len(ordered) - 1)
+    lo = math.floor(x)
+    hi = min(lo + 1, len(ordered) - 1)
+    return ordered[lo] + (ordered[hi] - ordered[lo]) * (x - lo)
 
 
 def floor_agent(

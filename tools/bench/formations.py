@@ -15,18 +15,19 @@ from shoal.world.loader import scenario_from_dict
 from shoal.world.scenario import Scenario
 
 
-def bench_scenario(n: int, ticks: int) -> dict[str, Any]:
+def bench_scenario(n: int, ticks: int, dt: float = 0.01) -> dict[str, Any]:
     offsets = [[0.0, 0.0]]
     for i in range(1, n):
         row, side = (i + 1) // 2, (1 if i % 2 else -1)
         offsets.append([-2.0 * row, 2.0 * side * math.sqrt(row)])
     edges = [[2, 1], [3, 1], [3, 2]]
     edges += [[i, i - 1] for i in range(4, n + 1)] + [[i, i - 2] for i in range(4, n + 1)]
+    edges = [e for e in edges if max(e) <= n]  # two agents: the follower senses the leader
     return {
         "name": f"bench-{n}",
         "description": f"{n} agents in a wedge, straight line, no obstacles (benchmark)",
-        "dt": 0.01,
-        "duration": ticks * 0.01,
+        "dt": dt,
+        "duration": ticks * dt,
         "graph": {"edges": edges},
         "agents": [{"offset": o} for o in offsets],
         "initial_noise": 0.5,

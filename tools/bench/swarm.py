@@ -50,7 +50,11 @@ def _cpu_times() -> tuple[int, ...]:
         return tuple(int(x) for x in f.readline().split()[1:])
 
 
-def measure_floor(n: int, ticks: int, timeout: float = 120.0) -> dict[str, Any]:
+def measure_floor(
+    n: int, ticks: int, timeout: float = 120.0, *, period: float = 0.0
+) -> dict[str, Any]:
+    """The floor pattern of ``n`` agents for ``ticks`` ticks: lockstep, or realtime at one tick
+    per ``period`` s (then with its latency and missed deadlines, tools/bench/floor.py)."""
     run, endpoint = f"floor-{uuid.uuid4().hex[:8]}", f"tcp/127.0.0.1:{free_port()}"
     common = ["--run", run, "--connect", endpoint]
     steal = Steal.start()
@@ -66,7 +70,17 @@ def measure_floor(n: int, ticks: int, timeout: float = 120.0) -> dict[str, Any]:
         world = swarm.spawn(
             "floor world",
             "world",
-            ["floor", "world", "--agents", str(n), "--ticks", str(ticks), *common],
+            [
+                "floor",
+                "world",
+                "--agents",
+                str(n),
+                "--ticks",
+                str(ticks),
+                "--period",
+                repr(period),
+                *common,
+            ],
             ready_pipe=True,
         )
         for i in range(1, n + 1):
@@ -77,19 +91,23 @@ def measure_floor(n: int, ticks: int, timeout: float = 120.0) -> dict[str, Any]:
         cpu = CpuWindow(lambda: swarm_processes(swarm))
         swarm.wait_ready(world, timeout, prefix="ready floor ticking")
         cpu.open()
-        result = json.loads(swarm.wait_ready(world, timeout, prefix="{"))
+        result = json.loads(swarm.wait_ready(world, timeout + ticks * period, prefix="{"))
         cpu.close(ticks)
         swarm.expect_exit({"world", "agent", "logger"}, timeout=10.0)
+    realtime = {k: result[k] for k in ("latency_p50_ms", "latency_p99_ms", "missed_deadlines")}
     return {
         "ticks_per_s": round(result["ticks_per_s"], 1),
         "steal": steal.fraction(),
         "cpu_us_per_tick": cpu.figures,
+        **(realtime if period > 0 else {}),
     }
 
 
-def measure_run(n: int, ticks: int, workdir: Path, *, clock: str = "lockstep") -> RunResult:
+def measure_run(
+    n: int, ticks: int, workdir: Path, *, clock: str = "lockstep", dt: float = 0.01
+) -> RunResult:
     path = workdir / f"bench-{n}.yaml"
-    path.write_text(yaml.safe_dump(bench_scenario(n, ticks)))
+    path.write_text(yaml.safe_dump(bench_scenario(n, ticks, dt)))
     plan = RunPlan(
         scenario=load_scenario(path),
         out=workdir / f"bench-{n}-{clock}.mcap",

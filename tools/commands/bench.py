@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from shoal.bus.runtime import exit_on_signals
+from shoal.tools.bench.capacity import LADDER, RATES, SECONDS, capacity
 from shoal.tools.bench.drops import bench_drops
 from shoal.tools.bench.filter import bench_filter
 from shoal.tools.bench.swarm import bench as run_bench
@@ -36,6 +37,23 @@ from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
     is_flag=True,
     help="Only the safety filter's CPU per agent-tick, beside the reference simulator's.",
 )
+@click.option(
+    "--capacity",
+    "capacity_only",
+    is_flag=True,
+    help="Instead: at each --rates, the largest formation on --ladder that runs --seconds "
+    "with no missed deadline and p99 command latency under one period, beside the floor's.",
+)
+@click.option(
+    "--rates",
+    "capacity_rates",
+    default=",".join(f"{r:g}" for r in RATES),
+    help="--capacity: ticks per second.",
+)
+@click.option(
+    "--ladder", default=",".join(map(str, LADDER)), help="--capacity: formation sizes to try."
+)
+@click.option("--seconds", default=SECONDS, help="--capacity: wall-clock seconds per trial.")
 def bench(
     sizes: str,
     ticks: int,
@@ -46,6 +64,10 @@ def bench(
     settle: float,
     repeats: int,
     filter_only: bool,
+    capacity_only: bool,
+    capacity_rates: str,
+    ladder: str,
+    seconds: float,
 ) -> None:
     """Measure lockstep ticks/s against a bare Zenoh exchange of the same message pattern
     (with each kind of process's CPU per tick in both), the time until every agent is up,
@@ -55,6 +77,20 @@ def bench(
     Prints one JSON object; progress goes to stderr.
     """
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    if capacity_only:
+        hz = _numbers(capacity_rates, float, "--rates")
+        steps = _numbers(ladder, int, "--ladder")
+        if min(hz) <= 0 or seconds <= 0:
+            raise click.BadParameter("rates and --seconds must be > 0", param_hint="--rates")
+        if min(steps) < 2:
+            raise click.BadParameter("every size needs a leader and a follower (≥ 2)",
+                                     param_hint="--ladder")  # fmt: skip
+        try:
+            rows = capacity(hz, sorted(set(steps)), seconds, say=_say)
+        except ChildFailed as exc:
+            raise click.ClickException(str(exc)) from None
+        _emit({"realtime_capacity": rows}, out)
+        return
     if filter_only:
         _emit(bench_filter(), out)
         return
@@ -86,6 +122,18 @@ def bench(
     _say("the safety filter, per agent-tick")
     result["safety_filter"] = bench_filter()
     _emit(result, out)
+
+
+def _numbers(text: str, kind: type[int] | type[float], hint: str) -> list[Any]:
+    try:
+        values = [kind(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise click.BadParameter(
+            f"{text!r} is not a comma-separated list", param_hint=hint
+        ) from None
+    if not values:
+        raise click.BadParameter("give at least one value", param_hint=hint)
+    return values
 
 
 def _say(text: str) -> None:

@@ -27,11 +27,14 @@ def _session(connect: str, what: str) -> zenoh.Session:
 @click.option("--connect", required=True)
 @click.option("--agents", type=int, required=True)
 @click.option("--ticks", type=int, required=True)
-def world_cmd(run_id: str, connect: str, agents: int, ticks: int) -> None:
+@click.option("--period", type=float, default=0.0, help="Realtime: seconds per tick (0: lockstep).")
+def world_cmd(run_id: str, connect: str, agents: int, ticks: int, period: float) -> None:
     exit_on_signals()
     sizes = message_sizes(load_bench(agents, ticks))
     with _session(connect, "floor world") as session:
-        result = floor_world(session, run=run_id, agents=agents, ticks=ticks, sizes=sizes)
+        result = floor_world(
+            session, run=run_id, agents=agents, ticks=ticks, sizes=sizes, period=period
+        )
         click.echo(json.dumps(result))  # before the session closes: the agents are still up
 
 
