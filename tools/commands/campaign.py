@@ -6,12 +6,15 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import click
 
 from shoal.bus.runtime import exit_on_signals
+from shoal.tools.campaign.cluster import ClusterError, run_on_dask
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
 from shoal.tools.campaign.people import (
     MODELS,
@@ -29,6 +32,7 @@ from shoal.tools.campaign.runner import (
     render,
     report,
     run_campaign,
+    run_task,
     saved_stem,
     tasks,
 )
@@ -42,6 +46,28 @@ from shoal.tools.simulator import simulate
 from shoal.world.errors import ScenarioError
 from shoal.world.metrics import summarize
 from shoal.world.scenario import Scenario
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+@dataclass(frozen=True)
+class Workers:
+    """Where the fields run: ``jobs`` local processes, or the Dask cluster at ``dask``."""
+
+    jobs: int
+    dask: str | None = None
+
+    def run(
+        self, todo: Sequence[T], done: Callable[[R], None], work: Callable[[T], R]
+    ) -> tuple[list[R], int]:
+        """The outcomes in task order, and how many workers ran them."""
+        if self.dask is None:
+            return run_campaign(todo, self.jobs, done, work), self.jobs
+        try:
+            return run_on_dask(todo, self.dask, done, work)
+        except ClusterError as exc:
+            raise click.ClickException(str(exc)) from None
 
 
 def _count(text: str) -> tuple[int, int]:
@@ -65,6 +91,12 @@ def _count(text: str) -> tuple[int, int]:
 @click.option("--outside-fields", default=20, help="Fields per broken assumption.")
 @click.option("--seed", default=0, help="Seed of the first field; field k has seed SEED+k.")
 @click.option("--jobs", default=os.cpu_count() or 1, help="Worker processes.")
+@click.option(
+    "--dask",
+    metavar="ADDRESS",
+    help="Instead of --jobs: run the fields on the Dask cluster whose scheduler is at ADDRESS "
+    "(e.g. tcp://10.0.0.1:8786; every worker needs this shoal; pip install 'shoal[cluster]').",
+)
 @click.option("--length", default=FieldOptions.length, help="Metres of the leader's path.")
 @click.option("--obstacles", default="2-5", help="Obstacles per field: N or LOW-HIGH.")
 @click.option("--spacing", default=0.0, help="Least free distance between obstacles, m.")
@@ -131,6 +163,7 @@ def campaign(
     outside_fields: int,
     seed: int,
     jobs: int,
+    dask: str | None,
     length: float,
     obstacles: str,
     spacing: float,
@@ -170,10 +203,13 @@ def campaign(
             count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
         )
     if swarm is not None:
+        if dask is not None:
+            raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
         _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd)
         return
+    where = Workers(max(1, jobs), dask)
     if crowd is not None:
-        _people(scn, seed, count, options, crowd, max(1, jobs), save_failures, as_json)
+        _people(scn, seed, count, options, crowd, where, save_failures, as_json)
         return
     modes = ("filter", "paper") if safety == "both" else (safety,)
     todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
@@ -186,8 +222,9 @@ def campaign(
         click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
     start = time.perf_counter()
     with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
-        outcomes: list[Outcome] = run_campaign(todo, max(1, jobs), lambda _o: bar.update(1))
-    rep = report(outcomes, time.perf_counter() - start, max(1, jobs))
+        outcomes: list[Outcome]
+        outcomes, jobs = where.run(todo, lambda _o: bar.update(1), run_task)
+    rep = report(outcomes, time.perf_counter() - start, jobs)
     if save_failures is not None:
         written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
         for failure in rep["failures"]:
@@ -211,7 +248,7 @@ def _people(
     count: int,
     options: FieldOptions,
     crowd: PeopleOptions,
-    jobs: int,
+    where: Workers,
     saved: Path | None,
     as_json: bool,
 ) -> None:
@@ -220,9 +257,8 @@ def _people(
     start = time.perf_counter()
     label = f"{count} fields with {crowd.count} {crowd.model} people at {crowd.speed:g} m/s"
     with progress_bar(count, label) as bar:
-        outcomes: list[PeopleOutcome] = run_campaign(
-            todo, jobs, lambda _o: bar.update(1), work=run_people_task
-        )
+        outcomes: list[PeopleOutcome]
+        outcomes, jobs = where.run(todo, lambda _o: bar.update(1), run_people_task)
     rep = people_report(outcomes, crowd, time.perf_counter() - start, jobs)
     if saved is not None:  # every field with a contact or without success, as scenario YAML
         saved.mkdir(parents=True, exist_ok=True)
