@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 from distributed import LocalCluster
 
+from shoal.tools.campaign import cluster
 from shoal.tools.campaign.cluster import ClusterError, run_on_dask
 from shoal.tools.campaign.fields import FieldOptions
 from shoal.tools.campaign.runner import run_campaign, run_task, tasks
@@ -62,7 +63,8 @@ def test_shoal_campaign_on_the_cluster_prints_the_local_report(scheduler: str) -
     assert _untimed(remote) == _untimed(local)
 
 
-def test_no_scheduler_is_a_clear_error() -> None:
+def test_no_scheduler_is_a_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1.0)  # nothing listens: no need to wait
     address = f"tcp://127.0.0.1:{free_port()}"
     with pytest.raises(ClusterError, match="no Dask scheduler at"):
         run_on_dask([], address, lambda _o: None, run_task)
