@@ -66,13 +66,14 @@ def test_capacity_counts_every_missed_deadline_and_stops_at_the_first_failing_si
     figures are counted, not assumed, and the ladder stops at its first size."""
     from shoal.tools.bench.capacity import capacity
 
-    (row,) = capacity(rates=[10_000.0], ladder=[2, 3], seconds=0.002)
-    assert row["rate_hz"] == 10_000.0 and row["floor"] is None and row["ours"] is None
-    (trial,) = row["trials"]  # 3 agents never tried: 2 already could not keep up
-    assert trial["agents"] == 2
-    for side in ("floor", "ours"):
-        assert trial[side]["missed_deadlines"] == 2 * 20, side
-        assert trial[side]["keeps_up"] is False
+    rows = capacity(rates=[10_000.0, 20_000.0], ladder=[2, 3], seconds=0.002)
+    for row, ticks in zip(rows, (20, 40), strict=True):  # two rates: two runs of 2 agents
+        assert row["floor"] is None and row["ours"] is None
+        (trial,) = row["trials"]  # 3 agents never tried: 2 already could not keep up
+        assert trial["agents"] == 2
+        for side in ("floor", "ours"):
+            assert trial[side]["missed_deadlines"] == 2 * ticks, side
+            assert trial[side]["keeps_up"] is False
 
 
 def test_capacity_options_are_checked() -> None:

@@ -41,6 +41,8 @@ def capacity(
     rows = []
     with tempfile.TemporaryDirectory(prefix="shoal-capacity-") as tmp:
         for rate in rates:
+            work = Path(tmp) / f"{rate:g}-hz"  # each run's log under its own name
+            work.mkdir()
             period = 1.0 / rate
             ticks = max(1, round(seconds * rate))
             row: dict[str, Any] = {"rate_hz": rate, "seconds": ticks * period}
@@ -60,10 +62,13 @@ def capacity(
                     if side == "floor":
                         figures = measure_floor(n, ticks, period=period)
                     else:
-                        run = measure_run(n, ticks, Path(tmp), clock="realtime", dt=period)
+                        run = measure_run(n, ticks, work, clock="realtime", dt=period)
                         figures = run.summary
                     trial[side] = {k: figures.get(k) for k in FIGURES}
                     trial[side]["keeps_up"] = ok = keeps_up(figures, period * 1e3)
+                    verdict = "keeps up" if ok else "falls behind"
+                    say(f"  {verdict}: {figures.get('missed_deadlines')} missed, "
+                        f"p99 {figures.get('latency_p99_ms')} ms")  # fmt: skip
                     if ok:
                         best[side] = n
                     else:
