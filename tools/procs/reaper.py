@@ -9,12 +9,20 @@ the Swarm closing it after its own clean-up, or the kernel closing it with the d
 — the reaper waits until no process has a file open in the folder (each child's stderr log is
 open there until it exits), at most :data:`WAIT_S`, removes the folder if it is still there, and
 exits. It never takes part in the run and never dies with the supervisor: that is its job.
+
+A child still holding a file there after :data:`WAIT_S` has outlived its own watchdog
+(bus/runtime.py: SIGALRM ``EXIT_GRACE_S`` after SIGTERM). That watchdog is armed by a Python
+signal handler, which runs only when the main thread gets back to the interpreter: a process
+blocked in native code (a Zenoh call waiting on a lock, seen once in CI on a loaded machine as a
+``python`` process in ``futex_do_wait``) never arms it. The reaper, a plain process outside the
+run, SIGKILLs such a child: only processes with a file open in the run's own private folder.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import signal
 import sys
 import time
 from pathlib import Path
@@ -51,12 +59,28 @@ def holders(folder: Path) -> list[int]:
     return found
 
 
-def reap(folder: Path, wait_s: float = WAIT_S) -> None:
-    """Wait until nobody holds a file in ``folder`` (at most ``wait_s``), then remove it."""
+KILL_WAIT_S = 5.0  # s for the kernel to take down what was SIGKILLed
+
+
+def reap(folder: Path, wait_s: float = WAIT_S) -> list[int]:
+    """Wait until nobody holds a file in ``folder`` (at most ``wait_s``), SIGKILL whoever still
+    does, then remove it. Returns the pids killed."""
     deadline = time.monotonic() + wait_s
     while folder.exists() and holders(folder) and time.monotonic() < deadline:
         time.sleep(POLL_S)
+    killed = holders(folder) if folder.exists() else []
+    for pid in killed:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            continue  # gone in between
+        print(f"reaper: SIGKILL to pid {pid}, still running {wait_s:g} s after its supervisor",
+              file=sys.stderr, flush=True)  # fmt: skip
+    deadline = time.monotonic() + KILL_WAIT_S
+    while killed and holders(folder) and time.monotonic() < deadline:
+        time.sleep(POLL_S / 10)
     shutil.rmtree(folder, ignore_errors=True)
+    return killed
 
 
 def main(argv: list[str]) -> int:
