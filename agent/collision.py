@@ -71,7 +71,7 @@ def evasive_offset(
     unit = [h / size for h in heading]
     to_centre = sub(centre, origin)
     along = dot(to_centre, unit)
-    foot = [o + along * u for o, u in zip(origin, unit, strict=True)]
+    foot = [o + along * u for o, u in zip(origin, unit)]
     away = sub(foot, centre)
     d = norm(away)
     direction = [a / d for a in away] if d > 1e-12 else _left_of(unit)
@@ -126,7 +126,7 @@ def _triggers(
 ) -> list[tuple[float, int]]:
     """(distance to centre, index) of every obstacle that fires the first clause of (11)."""
     hits = []
-    for k, (centre, radius) in enumerate(zip(centres, radii, strict=True)):
+    for k, (centre, radius) in enumerate(zip(centres, radii)):
         dist = norm(sub(position, centre))
         if dist > trigger_radius:
             continue

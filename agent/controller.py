@@ -220,7 +220,7 @@ class Controller:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
             v, evasion, lag = self._follow(memory, sensing, neighbours)
-        out = tuple(float(c) for c in v)
+        out = tuple([float(c) for c in v])
         filtered = False
         if self.filtered:
             result = safe_velocity(
@@ -246,7 +246,7 @@ class Controller:
             busy = memory.busy + 1
         k = self.smoothing
         memory = Memory(
-            heading=tuple([h + k * (x - h) for h, x in zip(memory.heading, out, strict=True)]),
+            heading=tuple([h + k * (x - h) for h, x in zip(memory.heading, out)]),
             evasion=evasion,
             bid=consensus_round(memory.bid, bids),
             sigma_consensus=memory.sigma_consensus,
@@ -318,7 +318,7 @@ class Controller:
         target, lag = None, 0.0
         if self.filtered and keep:
             degree = len(keep)
-            target = tuple([x - e / degree for x, e in zip(position, error, strict=True)])
+            target = tuple([x - e / degree for x, e in zip(position, error)])
             lag = max([abs(e) for e in error]) / degree
         held = memory.evasion
         if held is not None and target is not None:

@@ -8,8 +8,6 @@ arithmetic. Each function does numpy's operations in numpy's order, so the bits 
 
 from __future__ import annotations
 
-import operator
-
 from shoal.bus.geometry import PointsLike, Vector, VectorLike, rotation, shaped, sub
 
 __all__ = [
@@ -35,10 +33,10 @@ def consensus_error(
     """
     own = sub(position, offset)
     total: Vector | None = None
-    for x, d in zip(neighbour_positions, neighbour_offsets, strict=True):
+    for x, d in zip(neighbour_positions, neighbour_offsets):
         term = sub(own, sub(x, d))
-        total = term if total is None else tuple(map(operator.add, total, term))
-    return tuple(0.0 for _ in own) if total is None else total
+        total = term if total is None else tuple([x + y for x, y in zip(total, term)])
+    return tuple([0.0 for _ in own]) if total is None else total
 
 
 def evasive_error(error: VectorLike, degree: int, evasive_offset: VectorLike) -> Vector:
@@ -48,7 +46,7 @@ def evasive_error(error: VectorLike, degree: int, evasive_offset: VectorLike) ->
     argument vanishes, so "+" moves the agent's set-point by -u^o, towards the obstacle (u^o points
     from the obstacle to the ray). The minus sign here moves it by +u^o, away from the obstacle.
     """
-    return tuple([e - degree * u for e, u in zip(error, evasive_offset, strict=True)])
+    return tuple([e - degree * u for e, u in zip(error, evasive_offset)])
 
 
 def _sign(x: float) -> float:
@@ -62,4 +60,4 @@ def velocity(argument: VectorLike, *, alpha: float, beta: float, boundary_layer:
         switching = [min(max(e / boundary_layer, -1.0), 1.0) for e in argument]
     else:
         switching = [_sign(e) for e in argument]
-    return tuple([-alpha * e - beta * s for e, s in zip(argument, switching, strict=True)])
+    return tuple([-alpha * e - beta * s for e, s in zip(argument, switching)])

@@ -16,7 +16,6 @@ every machine; elementwise numpy (+, −, ×, ÷, sqrt) is exact and needs no su
 from __future__ import annotations
 
 import math
-import operator
 from collections.abc import Sequence
 
 import numpy as np
@@ -50,12 +49,12 @@ def norm(v: VectorLike) -> float:
 
 def sub(a: VectorLike, b: VectorLike) -> Vector:
     """a − b of two plain-float vectors, as a tuple (elementwise: the same bits as numpy's)."""
-    return tuple(map(operator.sub, a, b))
+    return tuple([x - y for x, y in zip(a, b)])
 
 
 def add(a: VectorLike, b: VectorLike) -> Vector:
     """a + b of two plain-float vectors, as a tuple."""
-    return tuple(map(operator.add, a, b))
+    return tuple([x + y for x, y in zip(a, b)])
 
 
 def scale(k: float, v: VectorLike) -> Vector:
@@ -67,7 +66,7 @@ def vdot(a: Sequence[float], b: Sequence[float]) -> float:
     """a · b of two plain-float vectors (tuples, lists), summed from 0.0 left to right: the
     small-vector arithmetic of the safety filter and the crowd model, the same bits anywhere."""
     s = 0.0
-    for x, y in zip(a, b, strict=True):
+    for x, y in zip(a, b):
         s += x * y
     return s
 

@@ -76,11 +76,11 @@ def _unit_away(own: Vector, other: Vector, axis_sign: float) -> tuple[Vector, fl
     """(unit vector from ``other`` to ``own``, their distance). For coincident points (a state
     the filter never leads to) the x axis, signed so that the two ends of a pair get opposite
     normals."""
-    diff = tuple(a - b for a, b in zip(own, other, strict=True))
+    diff = tuple([a - b for a, b in zip(own, other)])
     dist = math.sqrt(vdot(diff, diff))
     if dist == 0.0:
         return (axis_sign, *([0.0] * (len(own) - 1))), 0.0
-    return tuple(x / dist for x in diff), dist
+    return tuple([x / dist for x in diff]), dist
 
 
 def obstacle_row(position: Vector, centre: Vector, radius: float, margin: float) -> Row:
@@ -136,11 +136,11 @@ def rows_for(
     dist = math.dist
     rows = [
         obstacle_row(pos, c, r, margin)
-        for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii, strict=True)
+        for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii)
         if dist(pos, c) < r + margin + reach
     ]
     near = 2.0 * (half_separation + reach)
-    for j, q in zip(sensing.agent_ids, sensing.agent_positions, strict=True):
+    for j, q in zip(sensing.agent_ids, sensing.agent_positions):
         if dist(pos, q) < near:
             rows.append(agent_row(pos, q, half_separation, lower=agent_id < j))
     for m in sensing.movers:
@@ -160,7 +160,7 @@ def cap_speed(velocity: Vector, limit: float) -> Vector:
     if speed <= limit * _CAP_SLACK:
         return velocity
     k = limit / speed
-    return tuple(x * k for x in velocity)
+    return tuple([x * k for x in velocity])
 
 
 def project(
@@ -189,12 +189,12 @@ def project(
             candidate = _on_planes(nominal, chosen, dt)
             if candidate is None or not satisfies(candidate, near, dt):
                 continue
-            change = tuple(a - b for a, b in zip(candidate, nominal, strict=True))
+            change = tuple([a - b for a, b in zip(candidate, nominal)])
             dist = vdot(change, change)
             if dist < best_dist:
                 best, best_dist = candidate, dist
     if best is None:
-        return Filtered(tuple(0.0 for _ in nominal), active=True, fallback=True)
+        return Filtered(tuple([0.0 for _ in nominal]), active=True, fallback=True)
     return Filtered(best, active=True)
 
 
@@ -207,7 +207,7 @@ def _on_planes(nominal: Vector, chosen: Sequence[Row], dt: float) -> Vector | No
     if lam is None or min(lam) < -_LAMBDA_TOLERANCE:
         return None
     out = list(nominal)
-    for weight, r in zip(lam, chosen, strict=True):
+    for weight, r in zip(lam, chosen):
         for c in range(len(out)):
             out[c] += weight * r.normal[c]
     return tuple(out)
@@ -278,16 +278,16 @@ def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) 
         into = -vdot(r.normal, nominal)
         if into <= 0.0:
             continue
-        right = right_of(tuple(-g for g in r.normal))  # right of "towards it"
+        right = right_of(tuple([-g for g in r.normal]))  # right of "towards it"
         for c in range(len(push)):
             push[c] += into * right[c]
     if not any(push):
         return None
-    turned = [a + b for a, b in zip(nominal, push, strict=True)]
+    turned = [a + b for a, b in zip(nominal, push)]
     size = math.sqrt(vdot(turned, turned))
     if size == 0.0:
         return None
-    return tuple(x * (speed / size) for x in turned)
+    return tuple([x * (speed / size) for x in turned])
 
 
 def keep_going(
@@ -314,13 +314,13 @@ def keep_going(
             continue  # not holding the agent, or the nominal does not push into it
         n = r.normal
         along = vdot(n, out)
-        tangent = [x - along * g for x, g in zip(out, n, strict=True)]
+        tangent = [x - along * g for x, g in zip(out, n)]
         before = vdot(n, previous)
-        was = [x - before * g for x, g in zip(previous, n, strict=True)]
+        was = [x - before * g for x, g in zip(previous, n)]
         if vdot(tangent, was) >= 0.0:
             continue
         scale = math.sqrt(vdot(tangent, tangent) / vdot(was, was))
-        out = [along * g + scale * w for g, w in zip(n, was, strict=True)]
+        out = [along * g + scale * w for g, w in zip(n, was)]
         changed = True
     return tuple(out) if changed else None
 
@@ -383,12 +383,12 @@ def safe_velocity(
 def _towards_limit(inner: Vector, outer: Vector, limit: float) -> Vector:
     """The point of the segment from ``inner`` (‖inner‖ ≤ limit) to ``outer`` (faster) whose
     speed is ``limit``: the larger root t of ‖inner + t(outer − inner)‖² = limit²."""
-    step = tuple(b - a for a, b in zip(inner, outer, strict=True))
+    step = tuple([b - a for a, b in zip(inner, outer)])
     a = vdot(step, step)
     b = vdot(inner, step)
     c = vdot(inner, inner) - limit * limit
     t = min(1.0, max(0.0, (-b + math.sqrt(max(b * b - a * c, 0.0))) / a))
-    return tuple(x + t * d for x, d in zip(inner, step, strict=True))
+    return tuple([x + t * d for x, d in zip(inner, step)])
 
 
 def evade(nominal: Vector, rows: Sequence[Row], dt: float, speed_limit: float) -> Filtered:
@@ -411,7 +411,7 @@ def evade(nominal: Vector, rows: Sequence[Row], dt: float, speed_limit: float) -
     near = project(nominal, rows, dt, radius=speed_limit)
     if not near.fallback and vdot(near.velocity, near.velocity) <= limit * limit:
         return near
-    zero = tuple(0.0 for _ in nominal)
+    zero = tuple([0.0 for _ in nominal])
     slowest = project(zero, rows, dt, radius=speed_limit)
     if not slowest.fallback and vdot(slowest.velocity, slowest.velocity) <= limit * limit:
         if near.fallback:
@@ -423,7 +423,7 @@ def evade(nominal: Vector, rows: Sequence[Row], dt: float, speed_limit: float) -
             for c in range(len(away)):
                 away[c] += r.bound * r.normal[c]
     size = math.sqrt(vdot(away, away))
-    flee = zero if size == 0.0 else tuple(x * (speed_limit / size) for x in away)
+    flee = zero if size == 0.0 else tuple([x * (speed_limit / size) for x in away])
     relaxed = [Row(r.normal, min(r.bound, 0.0), r.obstacle, r.moving) for r in rows]
     out = project(flee, relaxed, dt)
     return Filtered(out.velocity, active=True, fallback=out.fallback, cornered=True)

@@ -11,11 +11,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numpy as np
-
 from shoal.bus.geometry import FloatArray
 from shoal.bus.safety import safe_velocity
-from shoal.bus.types import ControlParams, Mover, Sensing
+from shoal.bus.types import ControlParams, Mover, Sensing, Vector
 
 
 def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> FloatArray:
@@ -38,37 +36,39 @@ def sense_all(
     ``ids``: the obstacle id of each row of ``centres`` (default its row); ``movers``: every
     moving obstacle at the start of the tick, each sensed like a standing one (centre within d).
     """
-    rows = [tuple(row) for row in positions.tolist()]
-    n = len(rows)
-    apart = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=-1)
-    close = (apart <= sensing_radius) & ~np.eye(n, dtype=bool)
-    if centres.shape[0] == 0:
-        near = np.zeros((n, 0), dtype=bool)
-    else:
-        near = np.linalg.norm(positions[:, None, :] - centres[None, :, :], axis=-1)
-        near = near <= sensing_radius
-    centre_rows = [tuple(c) for c in centres.tolist()]
-    radius_list = radii.tolist()
-    out = []
-    # The masks as lists of bools: indexing them in Python is cheaper than a numpy call per row.
+    rows: list[Vector] = [tuple(row) for row in positions.tolist()]
+    centre_rows: list[Vector] = [tuple(c) for c in centres.tolist()]
+    radius_list: list[float] = radii.tolist()
     names = list(range(len(centre_rows))) if ids is None else list(ids)
-    dist = math.dist
-    for row, near_i, close_i in zip(rows, near.tolist(), close.tolist(), strict=True):
-        seen = [k for k, hit in enumerate(near_i) if hit]
-        others = [q for q, hit in enumerate(close_i) if hit]
+    # Plain floats, not numpy's (n, n) and (n, m) distance matrices: for a formation's few
+    # agents the matrices cost more in numpy's per-call overhead than the loops do compiled
+    # (docs/performance.md). The distances are numpy's norm's, term by term (_within).
+    out = []
+    for i, row in enumerate(rows):
+        seen = [k for k, c in enumerate(centre_rows) if _within(row, c, sensing_radius)]
+        others = [q for q, r in enumerate(rows) if q != i and _within(row, r, sensing_radius)]
         out.append(
             Sensing(
                 tick=tick,
                 position=row,
-                obstacle_ids=tuple(names[k] for k in seen),
-                obstacle_centres=tuple(centre_rows[k] for k in seen),
-                obstacle_radii=tuple(radius_list[k] for k in seen),
-                agent_ids=tuple(q + 1 for q in others),
-                agent_positions=tuple(rows[q] for q in others),
-                movers=tuple(m for m in movers if dist(row, m.centre) <= sensing_radius),
+                obstacle_ids=tuple([names[k] for k in seen]),
+                obstacle_centres=tuple([centre_rows[k] for k in seen]),
+                obstacle_radii=tuple([radius_list[k] for k in seen]),
+                agent_ids=tuple([q + 1 for q in others]),
+                agent_positions=tuple([rows[q] for q in others]),
+                movers=tuple([m for m in movers if math.dist(row, m.centre) <= sensing_radius]),
             )
         )
     return out
+
+
+def _within(a: Vector, b: Vector, radius: float) -> bool:
+    """‖a − b‖ ≤ radius, the norm summed in numpy's order (sqrt of Σ (a_k − b_k)², k = 0, 1, …)."""
+    total = 0.0
+    for k in range(len(a)):
+        d = a[k] - b[k]
+        total += d * d
+    return math.sqrt(total) <= radius
 
 
 def actuate(
