@@ -9,6 +9,7 @@ import click
 
 from shoal.tools.foxglove.export import ExportError, ExportResult, sibling, with_progress
 from shoal.tools.foxglove.views import ViewOptions
+from shoal.tools.ros2 import bag as ros2_bag
 
 
 def describe(result: ExportResult) -> str:
@@ -38,17 +39,44 @@ def describe(result: ExportResult) -> str:
     default=ViewOptions.plot_hz,
     help="Rate of the scalar channels, per simulated second (every tick if above 1/dt).",
 )
-@click.option("--force", is_flag=True, help="Overwrite the views file if it exists.")
+@click.option(
+    "--ros2",
+    "ros2",
+    metavar="DIR",
+    type=click.Path(path_type=Path),
+    help="Write a ROS 2 bag (rosbag2 directory, MCAP) to this directory instead of the views "
+    "(docs/ros2.md; needs pip install 'shoal[ros2]').",
+)
+@click.option("--force", is_flag=True, help="Overwrite the views file (or the --ros2 bag).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.pass_context
 def export(
-    file: Path, out: Path | None, scene_hz: float, plot_hz: float, force: bool, as_json: bool
+    ctx: click.Context,
+    file: Path,
+    out: Path | None,
+    scene_hz: float,
+    plot_hz: float,
+    ros2: Path | None,
+    force: bool,
+    as_json: bool,
 ) -> None:
     """Write Foxglove views of the run logged in FILE: a 3D scene, agent frames, a log and
     plottable metrics, as Foxglove JSON channels in a new MCAP file (FILE is not changed).
 
     `shoal run` does this by itself at the end of a run; this is for older logs, or to choose
-    other rates. Open the views file in Foxglove (docs/foxglove.md).
+    other rates. Open the views file in Foxglove (docs/foxglove.md). With --ros2 DIR, write a
+    ROS 2 bag of the run instead, for ros2 bag play and RViz (docs/ros2.md).
     """
+    if ros2 is not None:
+        views_only = [
+            f"--{name.replace('_', '-')}"
+            for name in ("out", "scene_hz", "plot_hz")
+            if ctx.get_parameter_source(name) != click.core.ParameterSource.DEFAULT
+        ]
+        if views_only:
+            raise click.UsageError(f"{', '.join(views_only)}: for the Foxglove views, not --ros2")
+        export_ros2(file, ros2, force=force, as_json=as_json)
+        return
     options = ViewOptions(scene_hz=scene_hz, plot_hz=plot_hz)
     target = out or sibling(file)
     if target.exists() and not force and target.resolve() != file.resolve():
@@ -64,3 +92,25 @@ def export(
         click.echo(json.dumps({"out": str(result.out)} | {k: getattr(result, k) for k in fields}))
     else:
         click.echo(describe(result))
+
+
+def export_ros2(file: Path, bag: Path, *, force: bool, as_json: bool) -> None:
+    """``--ros2 DIR``: the run as a rosbag2 directory (tools/ros2/bag.py)."""
+    try:
+        result = ros2_bag.with_progress(file, bag, force=force)
+    except ros2_bag.Ros2Error as exc:
+        raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"{bag}: cannot be written ({exc.strerror})") from None
+    if as_json:
+        fields = ("messages", "ticks", "seconds", "bytes", "topics")
+        click.echo(json.dumps({"out": str(result.out)} | {k: getattr(result, k) for k in fields}))
+    else:
+        click.echo(describe_bag(result))
+
+
+def describe_bag(result: ros2_bag.BagResult) -> str:
+    return (
+        f"{result.out}: ROS 2 bag, {len(result.topics)} topics, {result.messages} messages from "
+        f"{result.ticks} tick records, {result.bytes / 1e6:.1f} MB in {result.seconds:.1f} s"
+    )
