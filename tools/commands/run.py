@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import uuid
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -20,8 +21,11 @@ from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
-from shoal.tools.procs.launch import RunPlan, launch
+from shoal.tools.procs.launch import RunPlan, TickSink, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
+from shoal.world.scenario import Scenario
+
+LIVE_PORT = 8765  # Foxglove's default for a WebSocket connection
 
 
 def injected_drops(reports: Mapping[int, Mapping[str, Any]]) -> dict[str, int]:
@@ -83,6 +87,19 @@ def _where_the_log_is(out: Path) -> str:
 @click.option(
     "--force", is_flag=True, help="Overwrite the log (and its views) if they exist already."
 )
+@click.option(
+    "--live",
+    is_flag=True,
+    help="Serve the run to Foxglove while it runs, on a Foxglove WebSocket server on "
+    "127.0.0.1 (needs `pip install 'shoal[live]'`; docs/foxglove.md).",
+)
+@click.option(
+    "--live-port",
+    type=click.IntRange(0, 65535),
+    default=LIVE_PORT,
+    show_default=True,
+    help="Port of the --live server (0: any free port; the URL is printed).",
+)
 @drop_options
 @click.option(
     "--secure",
@@ -107,6 +124,8 @@ def run(
     start_timeout: float,
     foxglove: bool,
     force: bool,
+    live: bool,
+    live_port: int,
     drop_rate: float,
     drop_seed: int,
     secure: bool,
@@ -168,7 +187,8 @@ def run(
     if not writable:
         raise click.ClickException(f"{plan.out}: cannot be written (its folder is not writable)")
     try:
-        result = launch(plan)
+        with _live_view(scn, run_id, live_port) if live else contextlib.nullcontext() as sink:
+            result = launch(plan, sink)
     except (ChildFailed, CertError) as exc:
         why = str(exc).rstrip(": \n")  # a killed child has no last words: no dangling colon
         raise click.ClickException(f"{why}{_where_the_log_is(plan.out)}") from None
@@ -213,6 +233,28 @@ def run(
             f"agent process(es) died during the run: {', '.join(result.lost)} "
             "(the world held them still and finished without them)"
         )
+
+
+@contextlib.contextmanager
+def _live_view(scenario: Scenario, run_id: str, port: int) -> Iterator[TickSink]:
+    """The live view's server, up (its URL said on stderr) until the run ends."""
+    try:
+        from shoal.tools.foxglove.live import LiveError, LiveView
+    except ModuleNotFoundError as exc:
+        if exc.name != "foxglove":
+            raise
+        raise click.ClickException(
+            "--live needs the Foxglove SDK: pip install 'shoal[live]' (or foxglove-sdk)"
+        ) from None
+    with contextlib.ExitStack() as stack:
+        try:
+            view = stack.enter_context(LiveView(scenario, run_id, port=port))
+        except LiveError as exc:
+            raise click.ClickException(f"--live: {exc}") from None
+        warn(f"live view: {view.url}  (in Foxglove: Open connection → Foxglove WebSocket)")
+        if view.app_url:
+            warn(f"           or open {view.app_url}")
+        yield view
 
 
 def _check_material(secure_dir: Path, run_id: str | None, agents: int) -> str:

@@ -122,19 +122,19 @@ def views(
         metrics = plots(s, [r for _ns, r in block])
         for j, (ns, r) in enumerate(block):
             while events and events[-1][0] <= ns:
-                yield _event_view(*events.pop())
+                yield event_view(*events.pop())
             final = start + j == last
             yield from scene.at(ns, r, first=prev is None, final=final)
             if r.tick % plot == 0 or final:
                 for topic, message in metrics[j].items():
                     yield View(topic, ns, message)
-            for level, name, text in _changes(s, prev, r):
+            for level, name, text in changes_between(s, prev, r):
                 yield View(LOG, ns, log(ns, level, text, name))
             prev = r
             if progress is not None:
                 progress(start + j)
     while events:
-        yield _event_view(*events.pop())
+        yield event_view(*events.pop())
 
 
 class _Scene:
@@ -185,7 +185,7 @@ class _Scene:
         return [list(v) for v in moved.tolist()]
 
 
-def _event_view(ns: int, e: Event) -> View:
+def event_view(ns: int, e: Event) -> View:
     """A world event as a foxglove.Log line (a level outside Foxglove's 0–5 becomes 0,
     UNKNOWN: the wire does not bound it)."""
     name = f"agent {e.agent}" if e.agent else "world"
@@ -193,7 +193,9 @@ def _event_view(ns: int, e: Event) -> View:
     return View(LOG, ns, log(ns, level, f"tick {e.tick}: {e.text}", name))
 
 
-def _changes(s: Scenario, prev: TickRecord | None, r: TickRecord) -> Iterator[tuple[int, str, str]]:
+def changes_between(
+    s: Scenario, prev: TickRecord | None, r: TickRecord
+) -> Iterator[tuple[int, str, str]]:
     """Log lines (level, name, text) derived from the records: an agent starts or stops evading,
     the largest σ applied changes. (Departures are the world's own events.)"""
     t = f"tick {r.tick} (t = {r.tick * s.dt:.2f} s)"

@@ -15,7 +15,7 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from shoal.bus import codec
 from shoal.bus.acl import MONITOR
@@ -83,6 +83,16 @@ class RunPlan:
         return self.scenario.steps
 
 
+class TickSink(Protocol):
+    """Where the monitor hands the run's tick records and world events as they arrive, with
+    their arrival time (ns since the epoch), e.g. the live view (tools/foxglove/live.py). Both
+    must return at once: the monitor also watches the processes."""
+
+    def tick(self, ns: int, payload: bytes) -> None: ...
+
+    def event(self, ns: int, payload: bytes) -> None: ...
+
+
 @dataclass(frozen=True)
 class RunResult:
     summary: dict[str, Any]  # the world's summary (metrics and timing)
@@ -100,8 +110,9 @@ class RunResult:
         return [r["pss_kb"] / 1024 for r in self.agent_reports.values() if r.get("pss_kb")]
 
 
-def launch(plan: RunPlan) -> RunResult:
-    """Run ``plan`` to its end; raises tools.swarm.ChildFailed if a process fails."""
+def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
+    """Run ``plan`` to its end; raises tools.swarm.ChildFailed if a process fails. ``sink``
+    is handed every tick record and world event as the monitor receives them."""
     started = time.monotonic()
     with Swarm() as swarm:
         if plan.secure and plan.secure_dir is None:  # removed with the run folder at the end
@@ -141,7 +152,9 @@ def launch(plan: RunPlan) -> RunResult:
         window = None
         if plan.measure_cpu:
             window = CpuWindow(lambda: swarm_processes(swarm, monitor=os.getpid()))
-        summary, startup = _monitor(swarm, Keys(plan.run_id), endpoint, plan, started, lost, window)
+        summary, startup = _monitor(
+            swarm, Keys(plan.run_id), endpoint, plan, started, lost, window, sink
+        )
         swarm.expect_exit({"world", "agent"}, timeout=10.0)
         swarm.expect_exit({"logger"}, timeout=10.0)
         reports = reports_in(summary)  # each agent's own figures, via the world (bus/report.py)
@@ -171,6 +184,7 @@ def _monitor(
     began: float,
     lost: list[str],
     window: CpuWindow | None = None,
+    sink: TickSink | None = None,
 ) -> tuple[dict[str, Any], float]:
     """Follow the run from a client session until the world's summary arrives; also returns
     the seconds from ``began`` until every agent's token was up.
@@ -179,7 +193,8 @@ def _monitor(
     still, logs it, and ends the run itself if it was the leader); the agent is noted in
     ``lost`` and on stderr. Any other child that exits early fails the run, unless the world's
     summary is already on its way (the world exits right after publishing it). A CPU
-    ``window`` is opened at the first tick record and closed at the last one."""
+    ``window`` is opened at the first tick record and closed at the last one. A ``sink`` gets
+    every tick record and world event (the latter subscribed to only for it)."""
     inbox = Inbox()
     records = 0
     agents_up: set[str] = set()
@@ -190,6 +205,7 @@ def _monitor(
             subscribe(session, keys.tick, inbox),
             subscribe(session, keys.summary, inbox),
             watch_presence(session, keys.alive_agents, inbox),
+            *([subscribe(session, keys.event, inbox)] if sink is not None else []),
         ]
         token = session.liveliness().declare_token(keys.alive_process("monitor"))
         show = plan.progress and sys.stderr.isatty()
@@ -221,6 +237,11 @@ def _monitor(
                     if arrival.key == keys.summary:
                         summary = codec.decode_document("summary", arrival.payload)
                         break
+                    if sink is not None:
+                        if arrival.key == keys.event:
+                            sink.event(arrival.time_ns, arrival.payload)
+                            continue
+                        sink.tick(arrival.time_ns, arrival.payload)
                     records += 1
                     if window is not None and records == 1:
                         window.open()

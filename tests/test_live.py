@@ -1,0 +1,244 @@
+"""The live view (``shoal run --live``): the export's views, served while the run runs.
+
+The stream builder is checked against the export message for message; the whole thing with
+Foxglove's own WebSocket client (npm @foxglove/ws-protocol, tests/live/client.mjs) against a
+real ``shoal run``, whose positions and metrics must be the log's and the exported file's.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import socket
+import subprocess
+import sys
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import PYTHON, ROOT, run_cli, stop
+from mcap.reader import make_reader
+from test_foxglove import GONE_AT, TINY, TINY_PEOPLE, reference_log
+
+from shoal.bus import codec
+from shoal.tools.foxglove.export import sibling
+from shoal.tools.foxglove.live import BACKLOG, LiveView
+from shoal.tools.foxglove.plots import TOPICS as METRICS
+from shoal.tools.foxglove.stream import Stream
+from shoal.tools.foxglove.views import (
+    AGENTS,
+    FRAMES,
+    SENSING,
+    TOPICS,
+    RunLog,
+    View,
+    ViewOptions,
+    every,
+    views,
+)
+from shoal.tools.log.reader import read_trajectory
+from shoal.tools.procs.launch import free_port
+from shoal.world.loader import load_scenario
+
+CLIENT = ROOT / "tests" / "live"
+
+
+def streamed(run: RunLog, options: ViewOptions) -> list[View]:
+    """A Stream fed ``run`` record by record, asked for the scene and trails at the ticks the
+    export draws them (the live server asks by the wall clock instead)."""
+    s = Stream(run.scenario, run.start_ns, options)
+    dt = run.scenario.dt
+    scene, trail = every(options.scene_hz, dt), every(options.trail_hz, dt)
+    events = list(run.events)
+    out = s.static()
+    for k, (ns, r) in enumerate(run.ticks):
+        while events and events[0][0] <= ns:
+            out.append(s.event(*events.pop(0)))
+        out += s.take(ns, r)
+        final = k == len(run.ticks) - 1
+        if r.tick % scene == 0 or k == 0 or final:
+            out += s.scene()
+        if r.tick % trail == 0 or final:
+            out += s.trails()
+        out += s.metrics(final=final)
+    return out + [s.event(*e) for e in events]
+
+
+def keyed(msgs: list[View]) -> list[tuple[str, int, str]]:
+    """Order-free comparable form (the sensing layer is stamped with the run's start here and
+    with the first record in the export: left out)."""
+    return sorted((v.topic, v.ns, json.dumps(v.message)) for v in msgs if v.topic != SENSING)
+
+
+@pytest.mark.parametrize("text, gone", [(TINY, GONE_AT), (TINY_PEOPLE, None)])
+def test_the_stream_builds_the_exports_messages(text: str, gone: int | None) -> None:
+    run = reference_log(text, gone=gone)
+    options = ViewOptions(scene_hz=10.0, plot_hz=20.0)
+    exported, live = list(views(run, options)), streamed(run, options)
+    assert len(live) == len(exported) > 600
+    assert keyed(live) == keyed(exported)
+    assert {v.topic for v in live} == {v.topic for v in exported}
+
+
+def test_the_monitor_never_waits_for_the_publisher() -> None:
+    """tick() only queues: a publisher that does not keep up loses the oldest records."""
+    run = reference_log(TINY)
+    view = LiveView(run.scenario, "unit", port=0)  # never entered: nothing drains the queue
+    payload = codec.encode_tick(run.ticks[0][1])
+    for k in range(BACKLOG + 100):
+        view.tick(k, payload)
+    assert (view.dropped, len(view._queue), view._queue[0][1]) == (100, BACKLOG, 100)
+
+
+def test_without_a_viewer_nothing_is_published_and_every_record_is_taken() -> None:
+    run = reference_log(TINY)
+    with LiveView(run.scenario, "unit", port=0) as view:
+        assert view.url == f"ws://127.0.0.1:{view.port}" and view.port > 0
+        for ns, r in run.ticks:
+            view.tick(ns, codec.encode_tick(r))
+        view.tick(0, b"not a record")
+    assert view.published == 0 and view.skipped == 1 and view.dropped == 0
+    assert view.stream.latest is not None and view.stream.latest.record == run.ticks[-1][1]
+    assert view.stream.due == []  # nobody plots: the metrics were never computed
+
+
+@pytest.fixture(scope="session")
+def live_client(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """tests/live/client.mjs with its pinned packages installed (`npm ci`) in a folder of its
+    own; the checkout gets no node_modules."""
+    if shutil.which("node") is None or shutil.which("npm") is None:
+        pytest.skip("needs node and npm (Foxglove's WebSocket client)")
+    folder = tmp_path_factory.mktemp("live-client")
+    for name in ("package.json", "package-lock.json", "client.mjs"):
+        shutil.copy(CLIENT / name, folder / name)
+    subprocess.run(
+        ["npm", "ci", "--silent", "--no-audit", "--no-fund"], cwd=folder, check=True, timeout=300
+    )
+    return folder / "client.mjs"
+
+
+def _url(proc: subprocess.Popen[str]) -> str:
+    """The live view's URL, from the line `shoal run --live` prints once its server is up."""
+    assert proc.stderr is not None
+    seen = []
+    while line := proc.stderr.readline():
+        seen.append(line)
+        if "live view: ws://" in line:
+            return line.split()[2]
+    raise AssertionError(f"no live view URL: {''.join(seen)}")
+
+
+def _positions(message: dict[str, Any]) -> dict[int, list[float]]:
+    """Agent id → the centre of its body, from a /shoal/scene/agents message."""
+    out = {}
+    for e in message["entities"]:
+        if e["id"].startswith("agent/"):
+            p = e["spheres"][0]["pose"]["position"]
+            out[int(e["id"].removeprefix("agent/"))] = [p["x"], p["y"], p["z"]]
+    return out
+
+
+@pytest.mark.integration
+def test_foxglove_client_sees_the_run_the_log_records(tmp_path: Path, live_client: Path) -> None:
+    out = tmp_path / "crossing.mcap"
+    port = free_port()
+    proc = subprocess.Popen(
+        [*PYTHON, "run", "crossing", "--live", "--live-port", str(port), "--out", str(out),
+         "--json"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        url = _url(proc)
+        assert url == f"ws://127.0.0.1:{port}"
+        client = subprocess.run(
+            ["node", str(live_client), url], capture_output=True, text=True, timeout=300
+        )
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        stop(proc)
+    assert proc.returncode == 0, stderr
+    assert client.returncode == 0, client.stderr
+    lines = [json.loads(line) for line in client.stdout.splitlines()]
+    advertised = {c["topic"]: c for c in lines[0]["advertised"]}
+    assert set(advertised) == set(TOPICS)  # crossing has obstacles: every channel
+    assert {(c["encoding"], c["schemaEncoding"]) for c in advertised.values()} == {
+        ("json", "jsonschema")
+    }
+    assert all(advertised[t]["schemaName"] == name for t, name in TOPICS.items())
+    got: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for m in lines[1:]:
+        got[m["topic"]].append(m)
+
+    # Each record's views share its arrival time: the metrics say which tick it was.
+    scenario = load_scenario("crossing")
+    tick_at = {m["timestamp"]: m["message"]["tick"] for m in got[FORMATION_ERROR_TOPIC]}
+    traj = read_trajectory(out, dt=scenario.dt)
+    compared = 0
+    for m in got[AGENTS]:
+        tick = tick_at.get(m["timestamp"])
+        if tick is None:  # drawn before the client's subscription to the metrics took
+            continue
+        logged = np.round(traj.positions[tick], 4)
+        seen = _positions(m["message"])
+        assert sorted(seen) == list(range(1, scenario.n + 1))
+        assert np.array_equal(np.array([seen[i][:2] for i in sorted(seen)]), logged), tick
+        compared += 1
+    for m in got[FRAMES]:
+        if (tick := tick_at.get(m["timestamp"])) is None:
+            continue
+        moved = [[t["translation"]["x"], t["translation"]["y"]] for t in m["message"]["transforms"]]
+        assert np.array_equal(np.array(moved), np.round(traj.positions[tick], 4)), tick
+    assert compared >= 20, compared  # 800 ticks, drawn at a frame rate of the wall clock
+
+    # The metrics are the exported file's, message for message, for every tick since the
+    # client subscribed (dt 0.05 s: the export writes every tick), up to the last.
+    exported = _exported_metrics(sibling(out))
+    for topic in METRICS:
+        ticks = [m["message"]["tick"] for m in got[topic]]
+        assert ticks == list(range(ticks[0], scenario.steps)), topic
+        assert ticks[0] < scenario.steps // 2, topic
+        assert all(m["message"] == exported[topic][m["message"]["tick"]] for m in got[topic])
+    assert json.loads(stdout)["steps"] == scenario.steps
+
+
+FORMATION_ERROR_TOPIC = "/shoal/metrics/formation_error"
+
+
+def _exported_metrics(path: Path) -> dict[str, dict[int, dict[str, Any]]]:
+    out: dict[str, dict[int, dict[str, Any]]] = defaultdict(dict)
+    with path.open("rb") as f:
+        for _s, channel, message in make_reader(f).iter_messages(topics=list(METRICS)):
+            body = json.loads(message.data)
+            out[channel.topic][body["tick"]] = body
+    return out
+
+
+def test_a_taken_port_is_refused_in_one_line(tmp_path: Path) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        out = tmp_path / "x.mcap"
+        proc = run_cli(["run", "crossing", "--live", "--live-port", str(port), "--out", str(out)])
+    assert proc.returncode == 1
+    assert proc.stderr.strip().splitlines() == [
+        f"Error: --live: 127.0.0.1:{port} is in use; pick another port with --live-port"
+    ]
+    assert not out.exists()  # refused before any process was started
+
+
+def test_live_without_the_sdk_says_how_to_install_it(tmp_path: Path) -> None:
+    out = tmp_path / "x.mcap"
+    code = (
+        "import sys; sys.modules['foxglove'] = None\n"  # as if foxglove-sdk were not installed
+        "from shoal.tools.cli import main\n"
+        f"main(['run', 'crossing', '--live', '--out', {str(out)!r}])\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert proc.stderr.strip().splitlines() == [
+        "Error: --live needs the Foxglove SDK: pip install 'shoal[live]' (or foxglove-sdk)"
+    ]
+    assert not out.exists()

@@ -1,0 +1,235 @@
+"""The live view: a run's Foxglove views served over a Foxglove WebSocket server while it runs.
+
+``shoal run --live`` opens a :class:`LiveView` in the supervisor, whose monitor already receives
+every tick record; it hands each one (and each world event) to :meth:`LiveView.tick` /
+:meth:`LiveView.event`, which only append it to a bounded queue and return. A thread of its own
+turns the queue into the export's views (tools/foxglove/stream.py) and logs them on
+``foxglove-sdk`` channels. The server (its Rust core) queues per client and drops the oldest
+message for a client that does not keep up, so a slow viewer costs the run nothing.
+
+What it costs without a viewer: decoding the records (trails need their points). With one: the
+views of the channels someone subscribed to, and no others; the scene at most ``frame_hz`` times
+and the trails ``trail_hz`` times per second of wall clock, whatever the run's speed; the metrics
+of every tick the export writes, computed in one batch per frame. If the thread falls behind,
+the queue keeps the newest ``BACKLOG`` records and drops older ones (counted in ``dropped``).
+
+The messages are JSON on the export's topics with the export's schemas (Foxglove's own JSON
+schemas for ``foxglove.*``): a live message and the exported one of the same tick are the same
+bytes but for the timestamps, and one Foxglove layout serves both (docs/foxglove.md).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections import deque
+from types import TracebackType
+from typing import Literal
+
+import foxglove
+from foxglove.websocket import ChannelView, Client, ServerListener, WebSocketServer
+
+from shoal.bus import codec
+from shoal.bus.errors import DecodeError
+from shoal.tools.foxglove.plots import CLEARANCE, DISTANCE
+from shoal.tools.foxglove.plots import TOPICS as METRICS
+from shoal.tools.foxglove.stream import Stream
+from shoal.tools.foxglove.views import (
+    AGENTS,
+    FRAMES,
+    GRAPH,
+    SENSING,
+    TOPICS,
+    TRAILS,
+    WORLD,
+    View,
+    ViewOptions,
+    schema_text,
+)
+from shoal.world.scenario import Scenario
+
+DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket connection
+FRAME_HZ = 30.0  # wall clock: agents, frames and graph, at most
+TRAIL_HZ = 2.0  # wall clock: the trails (messages that grow with the run), at most
+BACKLOG = 4096  # records waiting for the publisher thread; the oldest go beyond it
+STOP_WAIT_S = 1.0  # for the server to close its connections at the end
+SCENE = (FRAMES, AGENTS, GRAPH)
+# Compact UTF-8 JSON, as the export writes it; a NaN (not JSON) is an error.
+_ENCODE = json.JSONEncoder(
+    separators=(",", ":"), ensure_ascii=False, allow_nan=False, check_circular=False
+).encode
+
+
+class LiveError(RuntimeError):
+    """The server cannot start (its port is taken, its host is not ours)."""
+
+
+class _Subscriptions(ServerListener):
+    """Which topics some client subscribes to (foxglove-sdk calls these from its own thread)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._count: dict[str, int] = {}
+        self.static_due = False  # a client subscribed to a layer drawn once: draw it again
+
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+        with self._lock:
+            self._count[channel.topic] = self._count.get(channel.topic, 0) + 1
+            self.static_due |= channel.topic in (WORLD, SENSING)
+
+    def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
+        with self._lock:
+            self._count[channel.topic] = max(self._count.get(channel.topic, 0) - 1, 0)
+
+    def any(self, *topics: str) -> bool:
+        with self._lock:
+            return any(self._count.get(t, 0) > 0 for t in topics)
+
+    def take_static(self) -> bool:
+        with self._lock:
+            due, self.static_due = self.static_due, False
+            return due
+
+
+class LiveView:
+    """A Foxglove WebSocket server for one run; a context manager (the server is up inside)."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        run_id: str,
+        *,
+        host: str = "127.0.0.1",
+        port: int = DEFAULT_PORT,
+        options: ViewOptions | None = None,
+        frame_hz: float = FRAME_HZ,
+        trail_hz: float = TRAIL_HZ,
+    ) -> None:
+        self.host, self.port = host, port
+        self.stream = Stream(scenario, time.time_ns(), options or ViewOptions())
+        self.frame_s, self.trail_s = 1.0 / frame_hz, 1.0 / trail_hz
+        self.dropped = 0  # records the publisher thread was too late for
+        self.skipped = 0  # records on our keys that did not decode or fit the scenario
+        self.published = 0  # messages handed to the server
+        self._queue: deque[tuple[Literal["tick", "event"], int, bytes]] = deque(maxlen=BACKLOG)
+        self._subs = _Subscriptions()
+        self._context = foxglove.Context()
+        meta = {"run": run_id, "source": "live"}
+        self._channels = {
+            topic: foxglove.Channel(
+                topic,
+                schema=foxglove.Schema(name=name, encoding="jsonschema", data=schema_text(name)),
+                message_encoding="json",
+                context=self._context,
+                metadata=meta,
+            )
+            for topic, name in TOPICS.items()
+            if not (topic == CLEARANCE and not scenario.obstacles)
+            and not (topic == DISTANCE and scenario.n < 2)
+        }  # as in the export: no channel that would have nothing to say
+        self._server: WebSocketServer | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, name="shoal live view", daemon=True)
+        self._fresh = False  # a record taken since the scene was last drawn
+        self._trailed = 0.0  # monotonic time the trails were last drawn
+
+    @property
+    def url(self) -> str:
+        return f"ws://{self.host}:{self.port}"
+
+    @property
+    def app_url(self) -> str | None:
+        """A link that opens this server in Foxglove's web app (None before it is up)."""
+        return self._server.app_url() if self._server is not None else None
+
+    def __enter__(self) -> LiveView:
+        try:
+            self._server = foxglove.start_server(
+                name=f"shoal {self.stream.scenario.name}",
+                host=self.host,
+                port=self.port,
+                server_listener=self._subs,
+                context=self._context,
+            )
+        except RuntimeError as exc:
+            why = str(exc).removeprefix("FoxgloveError: ")
+            if "in use" in why:
+                why = f"{self.host}:{self.port} is in use; pick another port with --live-port"
+            raise LiveError(why) from None
+        self.port = self._server.port  # the port taken, if asked for any (0)
+        self._thread.start()
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self._stop.set()
+        self._thread.join()
+        if kind is None:
+            self._cycle(final=True)  # the run's last state, drawn in full
+        if self._server is not None:
+            # stop() waits for each client to close, and a slow one reads its backlog first:
+            # stopping goes on without us after STOP_WAIT_S (the process's exit ends it).
+            stopping = threading.Thread(target=self._server.stop, name="stop", daemon=True)
+            stopping.start()
+            stopping.join(STOP_WAIT_S)
+
+    def tick(self, ns: int, payload: bytes) -> None:
+        """A tick record as it arrived (wall clock ``ns``): queued, never waited for."""
+        self._put("tick", ns, payload)
+
+    def event(self, ns: int, payload: bytes) -> None:
+        """A world event as it arrived: queued, never waited for."""
+        self._put("event", ns, payload)
+
+    def _put(self, kind: Literal["tick", "event"], ns: int, payload: bytes) -> None:
+        if len(self._queue) == BACKLOG:
+            self.dropped += 1
+        self._queue.append((kind, ns, payload))
+
+    def _serve(self) -> None:
+        while not self._stop.wait(self.frame_s):  # pacing at the frame rate
+            self._cycle()
+
+    def _cycle(self, *, final: bool = False) -> None:
+        """Take what has arrived; draw what is subscribed to and due."""
+        s = self.stream
+        while self._queue:
+            kind, ns, payload = self._queue.popleft()
+            try:
+                if kind == "event":
+                    self._publish([s.event(ns, codec.decode_event(payload))])
+                    continue
+                record = codec.decode_tick(payload)
+            except DecodeError:
+                self.skipped += 1
+                continue
+            if not s.fits(record):
+                self.skipped += 1
+                continue
+            self._publish(s.take(ns, record))
+            self._fresh = True
+        if self._subs.take_static():
+            self._publish(s.static())
+        if self._fresh and self._subs.any(*SCENE):
+            self._publish(s.scene())
+            self._fresh = False
+        now = time.monotonic()
+        if (final or now - self._trailed >= self.trail_s) and self._subs.any(TRAILS):
+            self._publish(s.trails())
+            self._trailed = now
+        if self._subs.any(*METRICS):
+            self._publish(s.metrics(final=final))
+        else:
+            s.skip_metrics()
+
+    def _publish(self, views: list[View]) -> None:
+        for v in views:
+            channel = self._channels.get(v.topic)
+            if channel is not None and self._subs.any(v.topic):
+                channel.log(_ENCODE(v.message).encode(), log_time=v.ns)
+                self.published += 1
