@@ -75,7 +75,7 @@ def roles(run: str, agents: int) -> list[Role]:
     monitor = Role(
         MONITOR,
         token=k.alive_process(MONITOR),
-        subscribes=(k.tick, k.summary),
+        subscribes=(k.tick, k.summary, k.event),  # events: for the live view's log
         watches=(k.alive_agents,),
     )
     agent_roles = [

@@ -131,6 +131,8 @@ def test_what_each_process_needs_to_run_is_allowed() -> None:
         (LOGGER, "put", "egress", k.command(1)),
         (LOGGER, "liveliness_token", "egress", k.alive_world),
         (MONITOR, "put", "egress", k.summary),
+        (MONITOR, "declare_subscriber", "ingress", k.event),  # shoal run --live --secure: the
+        (MONITOR, "put", "egress", k.event),  # world's events on the live view's /shoal/log
         (MONITOR, "liveliness_token", "egress", k.alive_agent(1)),
     ]
     for name, message, flow, key in needs:
@@ -143,6 +145,20 @@ def test_what_each_process_needs_to_run_is_allowed() -> None:
     ]
     for name, message, flow, key in refused:
         assert not may(ACL, name, message, flow, key), (name, message, flow, key)
+
+
+def test_the_monitor_hears_the_worlds_records_events_and_summary_and_nothing_else() -> None:
+    """The supervisor's session follows the run (ticks, summary) and feeds the live view (ticks,
+    events); it hears no agent's traffic, sends nothing and serves nothing."""
+    k = Keys(RUN)
+    for key in run_keys(RUN):
+        hears = key in (k.tick, k.event, k.summary)
+        for flow, message in [("ingress", "declare_subscriber"), ("egress", "put")]:
+            assert may(ACL, MONITOR, message, flow, key) is hears, (message, flow, key)
+        for message in ["put", "query", "declare_queryable"]:
+            assert not may(ACL, MONITOR, message, "ingress", key), (message, key)
+    heard = [k.tick, k.event, k.summary]
+    assert sum(may(ACL, MONITOR, "put", "egress", key) for key in run_keys(RUN)) == len(heard)
 
 
 def test_zenoh_accepts_the_rules() -> None:

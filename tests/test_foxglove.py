@@ -32,7 +32,7 @@ from shoal.bus.types import Event, TickRecord
 from shoal.tools.cli import main
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.foxglove.msgs import arrow, dashes, vec3s
-from shoal.tools.foxglove.plots import CLEARANCE, FORMATION_ERROR, OMEGA
+from shoal.tools.foxglove.plots import CLEARANCE, FILTER, FORMATION_ERROR, OMEGA, topics_of
 from shoal.tools.foxglove.views import (
     AGENTS,
     FRAMES,
@@ -53,7 +53,7 @@ from shoal.tools.foxglove.views import (
 from shoal.tools.log.writer import McapLog
 from shoal.tools.simulator import run as simulate_ticks
 from shoal.tools.simulator import simulate
-from shoal.world.loader import parse_scenario
+from shoal.world.loader import load_scenario, parse_scenario
 from shoal.world.metrics import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -327,6 +327,40 @@ def test_metrics_are_the_summarys() -> None:
     for v, (_ns, r) in zip(omega, run.ticks, strict=True):
         assert [a["value"] for a in v.message["agents"]] == [int(w) for w in r.omega]
         assert v.message["value"] == sum(r.omega)
+
+
+def test_filter_activity_is_the_logs_filtered_flags() -> None:
+    """crossing: people walk at the formation, and the safety filter changes commands."""
+    scenario = load_scenario("crossing")
+    run = reference_log(scenario.source)
+    s = run.scenario
+    summary = summarize(s, simulate(s))
+    acting = by_topic(list(views(run)), FILTER)
+    assert len(acting) == s.steps == 800  # dt 0.05 s: every tick
+    total = 0
+    for v, (ns, r) in zip(acting, run.ticks, strict=True):
+        m = v.message
+        assert (v.ns, m["tick"]) == (ns, r.tick)
+        assert [a["value"] for a in m["agents"]] == [int(f) for f in r.filtered]
+        assert [a["id"] for a in m["agents"]] == [1, 2, 3, 4, 5]
+        assert m["value"] == sum(r.filtered) and m["fraction"] == round(sum(r.filtered) / 5, 6)
+        total += m["value"]
+    flags = np.array([r.filtered for _ns, r in run.ticks])
+    assert total == int(flags.sum()) == round(summary.filter_activity * s.n * s.steps) > 100
+    assert np.mean([v.message["fraction"] for v in acting]) == pytest.approx(
+        summary.filter_activity, abs=1e-9
+    )
+    acted = {a["id"] for v in acting for a in v.message["agents"] if a["value"]}
+    assert acted == {1, 2, 3, 4, 5}
+    assert sum(v.message["value"] > 0 for v in acting) == int(flags.any(axis=1).sum()) > 50
+
+
+def test_without_the_filter_there_is_no_filter_channel() -> None:
+    paper = TINY + "control:\n  safety: paper\n"
+    run = reference_log(paper)
+    assert FILTER not in topics_of(run.scenario) and FILTER in topics_of(parse_scenario(TINY))
+    topics = {v.topic for v in views(replace(run, ticks=run.ticks[:5]))}
+    assert topics == set(TOPICS) - {FILTER}
 
 
 def test_dropped_edges_follow_omega_and_departures() -> None:

@@ -1,8 +1,10 @@
-"""The live view (``shoal run --live``): the export's views, served while the run runs.
+"""The live view (``shoal run --live``, ``shoal replay --live``): the export's views, served
+while the run runs or replays.
 
 The stream builder is checked against the export message for message; the whole thing with
 Foxglove's own WebSocket client (npm @foxglove/ws-protocol, tests/live/client.mjs) against a
-real ``shoal run``, whose positions and metrics must be the log's and the exported file's.
+real ``shoal run`` and a ``shoal replay`` of a log, whose positions and metrics must be the log's
+and the exported file's.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import time
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -20,16 +23,18 @@ import numpy as np
 import pytest
 from conftest import PYTHON, ROOT, run_cli, stop
 from mcap.reader import make_reader
-from test_foxglove import GONE_AT, TINY, TINY_PEOPLE, reference_log
+from test_foxglove import GONE_AT, LOG_STEP, TINY, TINY_PEOPLE, raw_log, reference_log
 
 from shoal.bus import codec
 from shoal.tools.foxglove.export import sibling
 from shoal.tools.foxglove.live import BACKLOG, LiveView
+from shoal.tools.foxglove.plots import FILTER
 from shoal.tools.foxglove.plots import TOPICS as METRICS
 from shoal.tools.foxglove.stream import Stream
 from shoal.tools.foxglove.views import (
     AGENTS,
     FRAMES,
+    LOG,
     SENSING,
     TOPICS,
     RunLog,
@@ -38,7 +43,7 @@ from shoal.tools.foxglove.views import (
     every,
     views,
 )
-from shoal.tools.log.reader import read_trajectory
+from shoal.tools.log.reader import read_ticks, read_trajectory
 from shoal.tools.procs.launch import free_port
 from shoal.world.loader import load_scenario
 
@@ -72,7 +77,10 @@ def keyed(msgs: list[View]) -> list[tuple[str, int, str]]:
     return sorted((v.topic, v.ns, json.dumps(v.message)) for v in msgs if v.topic != SENSING)
 
 
-@pytest.mark.parametrize("text, gone", [(TINY, GONE_AT), (TINY_PEOPLE, None)])
+CROSSING = load_scenario("crossing").source  # people walk at it: the filter acts
+
+
+@pytest.mark.parametrize("text, gone", [(TINY, GONE_AT), (TINY_PEOPLE, None), (CROSSING, None)])
 def test_the_stream_builds_the_exports_messages(text: str, gone: int | None) -> None:
     run = reference_log(text, gone=gone)
     options = ViewOptions(scene_hz=10.0, plot_hz=20.0)
@@ -102,6 +110,24 @@ def test_without_a_viewer_nothing_is_published_and_every_record_is_taken() -> No
     assert view.published == 0 and view.skipped == 1 and view.dropped == 0
     assert view.stream.latest is not None and view.stream.latest.record == run.ticks[-1][1]
     assert view.stream.due == []  # nobody plots: the metrics were never computed
+    assert view.wait_for_viewer(timeout=0.3) is False
+
+
+def test_a_run_that_starts_again_starts_its_views_again() -> None:
+    """shoal replay --loop hands over tick 0 again after the last tick: trails start afresh."""
+    run = reference_log(TINY)
+    payloads = [codec.encode_tick(r) for _ns, r in run.ticks]
+    with LiveView(run.scenario, "unit", port=0) as view:
+        for k, payload in enumerate(payloads):
+            view.tick(k, payload)
+        first = view.stream
+        for k, payload in enumerate(payloads[:30]):
+            view.tick(1000 + k, payload)
+    assert view.stream is not first and first.latest is not None
+    assert first.latest.record.tick == 199 and [len(h) for h in first.history] == [17] * 4
+    assert view.stream.latest is not None and view.stream.latest.record.tick == 29
+    assert [len(h) for h in view.stream.history] == [3] * 4  # ticks 0, 12, 24: 0.25 s apart
+    assert view.stream.start_ns == 1000 and view.skipped == view.dropped == 0
 
 
 @pytest.fixture(scope="session")
@@ -145,8 +171,8 @@ def test_foxglove_client_sees_the_run_the_log_records(tmp_path: Path, live_clien
     out = tmp_path / "crossing.mcap"
     port = free_port()
     proc = subprocess.Popen(
-        [*PYTHON, "run", "crossing", "--live", "--live-port", str(port), "--out", str(out),
-         "--json"],
+        [*PYTHON, "run", "crossing", "--live", "--live-port", str(port), "--live-wait", "--out",
+         str(out), "--json"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
@@ -202,8 +228,121 @@ def test_foxglove_client_sees_the_run_the_log_records(tmp_path: Path, live_clien
         assert all(m["message"] == exported[topic][m["message"]["tick"]] for m in got[topic])
     assert json.loads(stdout)["steps"] == scenario.steps
 
+    # The filter's activity is the log's filtered flags, and the filter acts in this run.
+    records = {r.tick: r for r in read_ticks(out)}
+    for m in got[FILTER]:
+        flags = records[m["message"]["tick"]].filtered
+        assert [a["value"] for a in m["message"]["agents"]] == [int(f) for f in flags]
+    assert sum(m["message"]["value"] for m in got[FILTER]) > 50
+
 
 FORMATION_ERROR_TOPIC = "/shoal/metrics/formation_error"
+
+
+@pytest.mark.integration
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl")
+def test_a_secured_run_serves_the_worlds_events(tmp_path: Path, live_client: Path) -> None:
+    """--secure: the router's rules let the monitor hear the world's events (bus/acl.py), so
+    the live log has "run finished" as the file's has."""
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text(load_scenario("passage").source.replace("duration: 45.0", "duration: 0.5"))
+    out = tmp_path / "short.mcap"
+    proc = subprocess.Popen(  # --live-wait: the run starts once the client has subscribed
+        [*PYTHON, "run", str(scenario), "--secure", "--live", "--live-port", "0", "--live-wait",
+         "--out", str(out), "--json"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        url = _url(proc)
+        client = subprocess.run(
+            ["node", str(live_client), url, "--topics", f"/shoal/log,{FORMATION_ERROR_TOPIC}"],
+            capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        stop(proc)
+    assert proc.returncode == 0, stderr
+    assert client.returncode == 0, client.stderr
+    assert json.loads(stdout)["secure"] is True
+    got = [json.loads(line) for line in client.stdout.splitlines()[1:]]
+    ticks = [m["message"]["tick"] for m in got if m["topic"] == FORMATION_ERROR_TOPIC]
+    assert ticks == list(range(50)), ticks  # subscribed before the run began: every tick
+    world = [(m["message"]["name"], m["message"]["message"]) for m in got if m["topic"] == LOG]
+    assert world.count(("world", "tick 50: run finished; 0 bad messages dropped")) == 1, world
+
+
+@pytest.mark.integration
+def test_a_replay_serves_the_logged_run_at_its_pace(tmp_path: Path, live_client: Path) -> None:
+    """shoal replay --live, no router: Foxglove's client sees the log's positions, the export's
+    metrics and the world's events, stamped by the replay's clock at the replay's rate."""
+    run = reference_log(CROSSING)  # 800 ticks, 7 ms of log time apart: 5.6 s
+    log = tmp_path / "crossing-fox-1.mcap"
+    raw_log(log, run)
+    port = free_port()
+    before = time.time_ns()
+    proc = subprocess.Popen(
+        [*PYTHON, "replay", str(log), "--live", "--live-port", str(port), "-r", "2"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        url = _url(proc)
+        assert url == f"ws://127.0.0.1:{port}"
+        assert proc.stderr is not None
+        while "replay: waiting for a viewer" not in (line := proc.stderr.readline()):
+            assert line, "the replay did not wait for a viewer"
+        client = subprocess.run(
+            ["node", str(live_client), url], capture_output=True, text=True, timeout=300
+        )
+        _stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        stop(proc)
+    after = time.time_ns()
+    assert proc.returncode == 0, stderr
+    assert client.returncode == 0, client.stderr
+    assert "801 messages replayed" in stderr  # no router: only the 800 records and 1 event
+    lines = [json.loads(line) for line in client.stdout.splitlines()]
+    assert {c["topic"] for c in lines[0]["advertised"]} == set(TOPICS)
+    assert all(c["schemaName"] == TOPICS[c["topic"]] for c in lines[0]["advertised"])
+    got: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for m in lines[1:]:
+        got[m["topic"]].append(m)
+
+    s = run.scenario
+    records = {r.tick: r for _ns, r in run.ticks}
+    tick_at = {int(m["timestamp"]): m["message"]["tick"] for m in got[FORMATION_ERROR_TOPIC]}
+    compared = 0
+    for m in got[AGENTS]:
+        tick = tick_at.get(int(m["timestamp"]))
+        if tick is None:
+            continue
+        seen = _positions(m["message"])
+        logged = np.round(np.array(records[tick].positions), 4)
+        assert np.array_equal(np.array([seen[i][:2] for i in sorted(seen)]), logged), tick
+        compared += 1
+    assert compared >= 20, compared  # 2.8 s of replay, drawn at up to 30 frames a second
+
+    exported: dict[str, dict[int, dict[str, Any]]] = defaultdict(dict)
+    for v in views(run):
+        if v.topic in METRICS:
+            exported[v.topic][v.message["tick"]] = v.message
+    for topic in METRICS:
+        ticks = [m["message"]["tick"] for m in got[topic]]
+        assert ticks == list(range(ticks[0], s.steps)) and ticks[0] < 100, (topic, ticks[:3])
+        assert all(m["message"] == exported[topic][m["message"]["tick"]] for m in got[topic])
+    for m in got[FILTER]:
+        flags = records[m["message"]["tick"]].filtered
+        assert [a["value"] for a in m["message"]["agents"]] == [int(f) for f in flags]
+    assert sum(m["message"]["value"] for m in got[FILTER]) > 50
+
+    # Stamped by the replay's wall clock (not the log's, months earlier), at the log's pace
+    # over 2: 2.8 s from the first tick to the last (at rate 1 it would be 5.6 s, at 4 1.4 s).
+    stamps = sorted(tick_at)
+    first, last = tick_at[stamps[0]], tick_at[stamps[-1]]
+    assert before < stamps[0] < stamps[-1] < after and last == s.steps - 1
+    due = (last - first) * LOG_STEP / 2  # ns: LOG_STEP apart in the log, played at rate 2
+    assert 0.9 * due <= stamps[-1] - stamps[0] <= due + 2e9, (stamps[-1] - stamps[0], due)
+    logs = [m["message"]["message"] for m in got["/shoal/log"]]
+    assert logs[-1] == "tick 800: run finished; 0 bad messages dropped"
 
 
 def _exported_metrics(path: Path) -> dict[str, dict[int, dict[str, Any]]]:
@@ -227,6 +366,14 @@ def test_a_taken_port_is_refused_in_one_line(tmp_path: Path) -> None:
         f"Error: --live: 127.0.0.1:{port} is in use; pick another port with --live-port"
     ]
     assert not out.exists()  # refused before any process was started
+
+
+def test_live_wait_without_live_is_a_usage_error(tmp_path: Path) -> None:
+    out = tmp_path / "x.mcap"
+    proc = run_cli(["run", "crossing", "--live-wait", "--out", str(out)])
+    assert proc.returncode == 2
+    assert "--live-wait waits for a viewer of --live: give --live too" in proc.stderr
+    assert not out.exists()
 
 
 def test_live_without_the_sdk_says_how_to_install_it(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ from shoal.bus.links import subscribe
 from shoal.bus.runtime import Inbox
 from shoal.tools.cli import main
 from shoal.tools.log.replay import Selection, messages
+from shoal.tools.log.writer import McapLog
 from shoal.tools.procs.launch import free_port
 from shoal.world.loader import load_scenario
 
@@ -57,6 +58,24 @@ def test_replay_delivers_the_same_bytes_in_the_same_order(router: str, tmp_path:
     assert proc.returncode == 1
     assert "replay: cannot open a Zenoh session" in proc.stderr and nobody in proc.stderr
     assert "is a router running there?" in proc.stderr and ".rs:" not in proc.stderr
+
+
+def test_replay_needs_a_router_or_a_viewer(tmp_path: Path) -> None:
+    log = tmp_path / "run.mcap"
+    log.write_bytes(b"")
+    nowhere = CliRunner().invoke(main, ["replay", str(log)])
+    assert nowhere.exit_code == 2
+    assert "say where to: --connect EP (a Zenoh router to republish onto), --live" in (
+        nowhere.output
+    )
+    empty = tmp_path / "empty.mcap"
+    with McapLog(empty, run="x"):  # finished, but nothing to draw the run in
+        pass
+    refused = CliRunner().invoke(main, ["replay", str(empty), "--live", "--live-port", "0"])
+    assert refused.exit_code == 1
+    assert refused.output.strip() == (
+        f"Error: --live: {empty}: no scenario document in the log: nothing to draw the run in"
+    )
 
 
 def test_selection_filters_topics() -> None:

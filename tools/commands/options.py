@@ -1,21 +1,27 @@
-"""Options shared by the process commands (router, world, agent, logger, run)."""
+"""Options shared by the process commands (router, world, agent, logger, run, replay)."""
 
 from __future__ import annotations
 
+import contextlib
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
 from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
+from shoal.bus.runtime import warn
 from shoal.world.errors import ScenarioError, ScenarioWarning
 from shoal.world.loader import load_scenario
 from shoal.world.scenario import Scenario
 
+if TYPE_CHECKING:  # not at run time: it needs the Foxglove SDK, which is optional
+    from shoal.tools.foxglove.live import LiveView
+
 F = TypeVar("F", bound=Callable[..., Any])
+LIVE_PORT = 8765  # Foxglove's default for a WebSocket connection
 
 
 def drop_options(func: F) -> F:
@@ -86,3 +92,50 @@ def load_for_cli(name_or_path: str) -> Scenario:
     for w in caught:
         click.echo(f"warning: {w.message}", err=True)
     return scenario
+
+
+def live_options(when: str) -> Callable[[F], F]:
+    """--live, --live-port: serve the run's Foxglove views ``when`` (e.g. "while it runs") on
+    a Foxglove WebSocket server."""
+
+    def add(func: F) -> F:
+        func = click.option(
+            "--live-port",
+            type=click.IntRange(0, 65535),
+            default=LIVE_PORT,
+            show_default=True,
+            help="Port of the --live server (0: any free port; the URL is printed).",
+        )(func)
+        return click.option(
+            "--live",
+            is_flag=True,
+            help=f"Serve the run's views to Foxglove {when}, on a Foxglove WebSocket server "
+            "on 127.0.0.1 (needs `pip install 'shoal[live]'`; docs/foxglove.md).",
+        )(func)
+
+    return add
+
+
+@contextlib.contextmanager
+def live_view(
+    scenario: Scenario, run_id: str, port: int, *, source: str = "live"
+) -> Iterator[LiveView]:
+    """The live view's server (tools/foxglove/live.py), up (its URL said on stderr) until the
+    block ends; a missing SDK or a taken port is a one-line error."""
+    try:
+        from shoal.tools.foxglove.live import LiveError, LiveView
+    except ModuleNotFoundError as exc:
+        if exc.name != "foxglove":
+            raise
+        raise click.ClickException(
+            "--live needs the Foxglove SDK: pip install 'shoal[live]' (or foxglove-sdk)"
+        ) from None
+    with contextlib.ExitStack() as stack:
+        try:
+            view = stack.enter_context(LiveView(scenario, run_id, port=port, source=source))
+        except LiveError as exc:
+            raise click.ClickException(f"--live: {exc}") from None
+        warn(f"live view: {view.url}  (in Foxglove: Open connection → Foxglove WebSocket)")
+        if view.app_url:
+            warn(f"           or open {view.app_url}")
+        yield view

@@ -6,7 +6,7 @@ import contextlib
 import json
 import os
 import uuid
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -16,16 +16,19 @@ from shoal.bus.errors import WireError
 from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
 from shoal.bus.types import Clock
-from shoal.tools.commands.options import check_run_id, drop_options, load_for_cli
+from shoal.tools.commands.options import (
+    check_run_id,
+    drop_options,
+    live_options,
+    live_view,
+    load_for_cli,
+)
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
-from shoal.tools.procs.launch import RunPlan, TickSink, launch
+from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
-from shoal.world.scenario import Scenario
-
-LIVE_PORT = 8765  # Foxglove's default for a WebSocket connection
 
 
 def injected_drops(reports: Mapping[int, Mapping[str, Any]]) -> dict[str, int]:
@@ -87,18 +90,11 @@ def _where_the_log_is(out: Path) -> str:
 @click.option(
     "--force", is_flag=True, help="Overwrite the log (and its views) if they exist already."
 )
+@live_options("while it runs")
 @click.option(
-    "--live",
+    "--live-wait",
     is_flag=True,
-    help="Serve the run to Foxglove while it runs, on a Foxglove WebSocket server on "
-    "127.0.0.1 (needs `pip install 'shoal[live]'`; docs/foxglove.md).",
-)
-@click.option(
-    "--live-port",
-    type=click.IntRange(0, 65535),
-    default=LIVE_PORT,
-    show_default=True,
-    help="Port of the --live server (0: any free port; the URL is printed).",
+    help="With --live: start the run only once a viewer has subscribed to one of its topics.",
 )
 @drop_options
 @click.option(
@@ -126,6 +122,7 @@ def run(
     force: bool,
     live: bool,
     live_port: int,
+    live_wait: bool,
     drop_rate: float,
     drop_seed: int,
     secure: bool,
@@ -137,6 +134,8 @@ def run(
     simulator's bit for bit, and the whole run is recorded in an MCAP file.
     """
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    if live_wait and not live:
+        raise click.UsageError("--live-wait waits for a viewer of --live: give --live too")
     if drop_rate > 0 and mode != "realtime":
         raise click.BadParameter(
             "needs --mode realtime: a lockstep run waits for every state, so a dropped one "
@@ -187,7 +186,10 @@ def run(
     if not writable:
         raise click.ClickException(f"{plan.out}: cannot be written (its folder is not writable)")
     try:
-        with _live_view(scn, run_id, live_port) if live else contextlib.nullcontext() as sink:
+        with live_view(scn, run_id, live_port) if live else contextlib.nullcontext() as sink:
+            if sink is not None and live_wait:
+                warn("run: waiting for a viewer to subscribe (Ctrl-C to stop)")
+                sink.wait_for_viewer()
             result = launch(plan, sink)
     except (ChildFailed, CertError) as exc:
         why = str(exc).rstrip(": \n")  # a killed child has no last words: no dangling colon
@@ -233,28 +235,6 @@ def run(
             f"agent process(es) died during the run: {', '.join(result.lost)} "
             "(the world held them still and finished without them)"
         )
-
-
-@contextlib.contextmanager
-def _live_view(scenario: Scenario, run_id: str, port: int) -> Iterator[TickSink]:
-    """The live view's server, up (its URL said on stderr) until the run ends."""
-    try:
-        from shoal.tools.foxglove.live import LiveError, LiveView
-    except ModuleNotFoundError as exc:
-        if exc.name != "foxglove":
-            raise
-        raise click.ClickException(
-            "--live needs the Foxglove SDK: pip install 'shoal[live]' (or foxglove-sdk)"
-        ) from None
-    with contextlib.ExitStack() as stack:
-        try:
-            view = stack.enter_context(LiveView(scenario, run_id, port=port))
-        except LiveError as exc:
-            raise click.ClickException(f"--live: {exc}") from None
-        warn(f"live view: {view.url}  (in Foxglove: Open connection → Foxglove WebSocket)")
-        if view.app_url:
-            warn(f"           or open {view.app_url}")
-        yield view
 
 
 def _check_material(secure_dir: Path, run_id: str | None, agents: int) -> str:

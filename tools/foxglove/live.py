@@ -2,9 +2,10 @@
 
 ``shoal run --live`` opens a :class:`LiveView` in the supervisor, whose monitor already receives
 every tick record; it hands each one (and each world event) to :meth:`LiveView.tick` /
-:meth:`LiveView.event`, which only append it to a bounded queue and return. A thread of its own
-turns the queue into the export's views (tools/foxglove/stream.py) and logs them on
-``foxglove-sdk`` channels. The server (its Rust core) queues per client and drops the oldest
+:meth:`LiveView.event`, which only append it to a bounded queue and return (``shoal replay
+--live`` hands over a log's records the same way, each when it is due: tools/log/replay.py). A
+thread of its own turns the queue into the export's views (tools/foxglove/stream.py) and logs
+them on ``foxglove-sdk`` channels. The server (its Rust core) queues per client and drops the oldest
 message for a client that does not keep up, so a slow viewer costs the run nothing.
 
 What it costs without a viewer: decoding the records (trails need their points). With one: the
@@ -32,8 +33,8 @@ from foxglove.websocket import ChannelView, Client, ServerListener, WebSocketSer
 
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
-from shoal.tools.foxglove.plots import CLEARANCE, DISTANCE
 from shoal.tools.foxglove.plots import TOPICS as METRICS
+from shoal.tools.foxglove.plots import topics_of
 from shoal.tools.foxglove.stream import Stream
 from shoal.tools.foxglove.views import (
     AGENTS,
@@ -72,11 +73,13 @@ class _Subscriptions(ServerListener):
         self._lock = threading.Lock()
         self._count: dict[str, int] = {}
         self.static_due = False  # a client subscribed to a layer drawn once: draw it again
+        self.viewer = threading.Event()  # set at the first subscription
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         with self._lock:
             self._count[channel.topic] = self._count.get(channel.topic, 0) + 1
             self.static_due |= channel.topic in (WORLD, SENSING)
+        self.viewer.set()
 
     def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
         with self._lock:
@@ -85,6 +88,10 @@ class _Subscriptions(ServerListener):
     def any(self, *topics: str) -> bool:
         with self._lock:
             return any(self._count.get(t, 0) > 0 for t in topics)
+
+    def redraw_static(self) -> None:
+        with self._lock:
+            self.static_due = True
 
     def take_static(self) -> bool:
         with self._lock:
@@ -105,6 +112,7 @@ class LiveView:
         options: ViewOptions | None = None,
         frame_hz: float = FRAME_HZ,
         trail_hz: float = TRAIL_HZ,
+        source: str = "live",
     ) -> None:
         self.host, self.port = host, port
         self.stream = Stream(scenario, time.time_ns(), options or ViewOptions())
@@ -115,7 +123,8 @@ class LiveView:
         self._queue: deque[tuple[Literal["tick", "event"], int, bytes]] = deque(maxlen=BACKLOG)
         self._subs = _Subscriptions()
         self._context = foxglove.Context()
-        meta = {"run": run_id, "source": "live"}
+        meta = {"run": run_id, "source": source}
+        has = topics_of(scenario)
         self._channels = {
             topic: foxglove.Channel(
                 topic,
@@ -125,8 +134,7 @@ class LiveView:
                 metadata=meta,
             )
             for topic, name in TOPICS.items()
-            if not (topic == CLEARANCE and not scenario.obstacles)
-            and not (topic == DISTANCE and scenario.n < 2)
+            if topic not in METRICS or topic in has
         }  # as in the export: no channel that would have nothing to say
         self._server: WebSocketServer | None = None
         self._stop = threading.Event()
@@ -186,6 +194,15 @@ class LiveView:
         """A world event as it arrived: queued, never waited for."""
         self._put("event", ns, payload)
 
+    def wait_for_viewer(self, timeout: float | None = None) -> bool:
+        """Until some client subscribes to a channel (``shoal replay --live`` plays the run
+        for someone); False if ``timeout`` s passed first."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not self._subs.viewer.wait(0.2):  # short waits: a signal still ends the process
+            if deadline is not None and time.monotonic() >= deadline:
+                return False
+        return True
+
     def _put(self, kind: Literal["tick", "event"], ns: int, payload: bytes) -> None:
         if len(self._queue) == BACKLOG:
             self.dropped += 1
@@ -211,6 +228,10 @@ class LiveView:
             if not s.fits(record):
                 self.skipped += 1
                 continue
+            if s.latest is not None and record.tick < s.latest.record.tick:
+                # The run starts again (shoal replay --loop): so do its views and trails.
+                s = self.stream = Stream(s.scenario, ns, s.options)
+                self._subs.redraw_static()
             self._publish(s.take(ns, record))
             self._fresh = True
         if self._subs.take_static():

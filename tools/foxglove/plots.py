@@ -1,4 +1,5 @@
-"""The scalar channels for Foxglove's Plot panel: formation error, distances, clearance, σ, Ω.
+"""The scalar channels for Foxglove's Plot panel: formation error, distances, clearance, σ, Ω,
+and the safety filter's activity.
 
 Each message has ``tick``, ``t`` (simulated seconds, for a Plot whose x axis is a message path)
 and a headline ``value``; ``agents`` (or ``edges``) break it down, to be picked out in a Plot
@@ -7,7 +8,8 @@ path with a filter such as ``.agents[:]{id==3}.value``. The numbers come from wo
 
 The schemas are shoal's own (``shoal.*``), in the subset of JSON Schema Foxglove's decoder reads:
 objects with typed properties, arrays of numbers or objects, no nulls; so a channel that would
-have nothing to say (clearance without obstacles) is not written at all.
+have nothing to say (clearance without obstacles, the filter's activity where there is no
+filter) is not written at all: :func:`topics_of` names the channels a scenario has.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.types import TickRecord
+from shoal.bus.types import Safety, TickRecord
 from shoal.tools.foxglove.msgs import Json
 from shoal.world.metrics import clearances, formation_errors, pair_distances
 from shoal.world.scenario import Scenario
@@ -31,6 +33,7 @@ DISTANCE = "/shoal/metrics/distance"
 CLEARANCE = "/shoal/metrics/clearance"
 SIGMA = "/shoal/metrics/sigma"
 OMEGA = "/shoal/metrics/omega"
+FILTER = "/shoal/metrics/filter"
 
 
 def _number(description: str) -> Json:
@@ -111,6 +114,14 @@ SCHEMAS: dict[str, Json] = {
         value=_integer("number of agents evading"),
         alive=_integer("number of agents whose process is up"),
     ),
+    "shoal.Filter": _schema(
+        "shoal.Filter",
+        "Safety filter activity: the agents whose filter changed their nominal command this "
+        "tick (docs/safety.md)",
+        {"id": _integer("agent id"), "value": _integer("1 if its filter changed its command")},
+        value=_integer("number of agents whose filter changed their command"),
+        fraction=_number("that number over all agents (its mean is the summary's filter_activity)"),
+    ),
 }
 
 TOPICS = {
@@ -119,7 +130,19 @@ TOPICS = {
     CLEARANCE: "shoal.Clearance",
     SIGMA: "shoal.Sigma",
     OMEGA: "shoal.Omega",
+    FILTER: "shoal.Filter",
 }
+
+
+def topics_of(scenario: Scenario) -> dict[str, str]:
+    """The scalar channels ``scenario``'s runs have (topic → schema name): no distance for a
+    lone agent, no clearance without obstacles, no filter activity without the filter."""
+    absent = {
+        DISTANCE: scenario.n < 2,
+        CLEARANCE: not scenario.obstacles,
+        FILTER: scenario.control.safety != Safety.FILTER,
+    }
+    return {t: name for t, name in TOPICS.items() if not absent.get(t, False)}
 
 
 def trajectory_of(records: Sequence[TickRecord], dt: float) -> Trajectory:
@@ -143,6 +166,7 @@ def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, J
     index = {pair: k for k, pair in enumerate(pair_list)}
     edge_columns = [index[min(a, b) - 1, max(a, b) - 1] for a, b in s.edges]
     tolerance = round(s.tolerance, DIGITS)
+    filtering = s.control.safety == Safety.FILTER
     out = []
     for k, r in enumerate(records):
         head = {"tick": r.tick, "t": round(r.tick * s.dt, DIGITS)}
@@ -168,6 +192,14 @@ def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, J
                 "agents": [{"id": i + 1, "value": int(w)} for i, w in enumerate(r.omega)],
             },
         }
+        if filtering:
+            acted = sum(r.filtered)
+            msgs[FILTER] = {
+                **head,
+                "value": acted,
+                "fraction": round(acted / s.n, DIGITS),
+                "agents": [{"id": i + 1, "value": int(f)} for i, f in enumerate(r.filtered)],
+            }
         if pairs is not None:
             row = pairs[k]
             closest = min(range(len(row)), key=row.__getitem__)
