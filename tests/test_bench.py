@@ -59,6 +59,17 @@ def test_keeping_up_needs_no_missed_deadline_and_p99_under_one_period() -> None:
     assert not keeps_up({"missed_deadlines": 0, "latency_p99_ms": None}, 10.0)  # no command
 
 
+def test_a_tolerated_miss_rate_counts_against_the_agent_ticks() -> None:
+    from shoal.tools.bench.capacity import keeps_up
+
+    figures = {"missed_deadlines": 3, "latency_p99_ms": 9.0}
+    assert not keeps_up(figures, 10.0, agent_ticks=3000)  # default: no miss at all
+    assert keeps_up(figures, 10.0, agent_ticks=3000, max_miss_rate=0.001)  # 3 ≤ 3
+    assert not keeps_up(figures, 10.0, agent_ticks=2999, max_miss_rate=0.001)
+    assert not keeps_up({**figures, "latency_p99_ms": 10.0}, 10.0, agent_ticks=10**6,
+                        max_miss_rate=0.5)  # fmt: skip  # the latency rule still holds
+
+
 @pytest.mark.integration
 def test_capacity_counts_every_missed_deadline_and_stops_at_the_first_failing_size() -> None:
     """At 10 kHz no command can come back within its 0.1 ms period over a router (the round
@@ -77,7 +88,8 @@ def test_capacity_counts_every_missed_deadline_and_stops_at_the_first_failing_si
 
 
 def test_capacity_options_are_checked() -> None:
-    for args in (["--rates", "fast"], ["--rates", "0"], ["--ladder", "1,5"], ["--seconds", "0"]):
+    for args in (["--rates", "fast"], ["--rates", "0"], ["--ladder", "1,5"], ["--seconds", "0"],
+                 ["--max-miss-rate", "1"], ["--max-miss-rate", "-0.1"]):  # fmt: skip
         result = CliRunner().invoke(main, ["bench", "--capacity", *args])
         assert result.exit_code == 2, (args, result.output)
         assert "Invalid value" in result.output, args

@@ -54,6 +54,13 @@ from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
     "--ladder", default=",".join(map(str, LADDER)), help="--capacity: formation sizes to try."
 )
 @click.option("--seconds", default=SECONDS, help="--capacity: wall-clock seconds per trial.")
+@click.option(
+    "--max-miss-rate",
+    type=click.FloatRange(0.0, 1.0, max_open=True),
+    default=0.0,
+    help="--capacity: a size keeps up with missed deadlines up to this fraction of its "
+    "agent-ticks (default 0: none at all).",
+)
 def bench(
     sizes: str,
     ticks: int,
@@ -68,6 +75,7 @@ def bench(
     capacity_rates: str,
     ladder: str,
     seconds: float,
+    max_miss_rate: float,
 ) -> None:
     """Measure lockstep ticks/s against a bare Zenoh exchange of the same message pattern
     (with each kind of process's CPU per tick in both), the time until every agent is up,
@@ -86,7 +94,7 @@ def bench(
             raise click.BadParameter("every size needs a leader and a follower (≥ 2)",
                                      param_hint="--ladder")  # fmt: skip
         try:
-            rows = capacity(hz, sorted(set(steps)), seconds, say=_say)
+            rows = capacity(hz, sorted(set(steps)), seconds, max_miss_rate=max_miss_rate, say=_say)
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
         _emit({"realtime_capacity": rows}, out)
