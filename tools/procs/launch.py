@@ -217,7 +217,7 @@ def _monitor(
                     try:
                         swarm.check()
                     except ChildFailed:
-                        late = _late_summary(inbox, keys, within=2.0)
+                        late = _late_summary(inbox, keys, within=2.0, sink=sink)
                         if late is None:
                             raise
                         summary = late
@@ -266,13 +266,22 @@ def _note_lost_agents(swarm: Swarm, lost: list[str]) -> None:
             warn(f"shoal run: {c.name} exited with code {code}; the world goes on without it")
 
 
-def _late_summary(inbox: Inbox, keys: Keys, within: float) -> dict[str, Any] | None:
-    """The world's summary if it is in ``inbox`` or arrives within ``within`` seconds."""
+def _late_summary(
+    inbox: Inbox, keys: Keys, within: float, sink: TickSink | None = None
+) -> dict[str, Any] | None:
+    """The world's summary if it is in ``inbox`` or arrives within ``within`` seconds; the
+    tick records and events before it still go to ``sink`` (a world that has exited after
+    its summary is seen here first: its "run finished" event must reach the live view)."""
     deadline = time.monotonic() + within
     while (arrival := inbox.get(timeout=max(deadline - time.monotonic(), 0.0))) is not None:
-        if arrival.kind == "data" and arrival.key == keys.summary:
+        if arrival.kind != "data":
+            continue
+        if arrival.key == keys.summary:
             try:
                 return codec.decode_document("summary", arrival.payload)
             except DecodeError:
                 continue
+        if sink is not None:
+            handed = sink.event if arrival.key == keys.event else sink.tick
+            handed(arrival.time_ns, arrival.payload)
     return None
