@@ -1,7 +1,8 @@
 """The live view (``shoal run --live``, ``shoal replay --live``): the export's views, served
 while the run runs or replays.
 
-The stream builder is checked against the export message for message; the whole thing with
+The stream builder is checked against the export message for message, and the live view's
+decimation of the metrics to the wall clock on a clock of the test's own; the whole thing with
 Foxglove's own WebSocket client (npm @foxglove/ws-protocol, tests/live/client.mjs) against a
 real ``shoal run`` and a ``shoal replay`` of a log, whose positions and metrics must be the log's
 and the exported file's.
@@ -9,6 +10,7 @@ and the exported file's.
 
 from __future__ import annotations
 
+import itertools
 import json
 import shutil
 import socket
@@ -26,9 +28,10 @@ from mcap.reader import make_reader
 from test_foxglove import GONE_AT, LOG_STEP, TINY, TINY_PEOPLE, raw_log, reference_log
 
 from shoal.bus import codec
+from shoal.tools.foxglove import stream as stream_module
 from shoal.tools.foxglove.export import sibling
-from shoal.tools.foxglove.live import BACKLOG, LiveView
-from shoal.tools.foxglove.plots import FILTER
+from shoal.tools.foxglove.live import BACKLOG, PLOT_RATE, LiveView
+from shoal.tools.foxglove.plots import FILTER, plots
 from shoal.tools.foxglove.plots import TOPICS as METRICS
 from shoal.tools.foxglove.stream import Stream
 from shoal.tools.foxglove.views import (
@@ -130,6 +133,93 @@ def test_a_run_that_starts_again_starts_its_views_again() -> None:
     assert view.stream.start_ns == 1000 and view.skipped == view.dropped == 0
 
 
+class _Recording(LiveView):
+    """A live view whose metric messages are kept as they go out (no server needed)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.sent: dict[str, list[View]] = defaultdict(list)
+        self._subs._count.update(dict.fromkeys(METRICS, 1))  # as if a client plotted them all
+
+    def _publish(self, views: list[View]) -> None:
+        for v in views:
+            if v.topic in METRICS and v.topic in self._channels:
+                self.sent[v.topic].append(v)
+        super()._publish(views)
+
+
+def _plotted(
+    run: RunLog, apart_ns: int, cycle_ns: int, monkeypatch: pytest.MonkeyPatch
+) -> tuple[_Recording, float, int]:
+    """The live view's builder driven by hand on a clock of its own (no thread): ``run``'s
+    records arriving ``apart_ns`` apart from the view's start, a cycle every ``cycle_ns``, then
+    the final one. Returns the view, the seconds from its start to the last record, and how
+    many records the metrics were computed for."""
+    computed = [0]
+
+    def counted(scenario: Any, records: Any) -> Any:
+        computed[0] += len(records)
+        return plots(scenario, records)
+
+    monkeypatch.setattr(stream_module, "plots", counted)
+    view = _Recording(run.scenario, "unit", port=0, plot_rate=PLOT_RATE)
+    start = view.stream.start_ns
+    cycle = start + cycle_ns
+    for k, (_ns, r) in enumerate(run.ticks):
+        ns = start + (k + 1) * apart_ns
+        while cycle <= ns:
+            view._cycle()
+            cycle += cycle_ns
+        view.tick(ns, codec.encode_tick(r))
+    view._cycle(final=True)
+    return view, len(run.ticks) * apart_ns / 1e9, computed[0]
+
+
+def _exported(run: RunLog) -> dict[str, dict[int, dict[str, Any]]]:
+    out: dict[str, dict[int, dict[str, Any]]] = defaultdict(dict)
+    for v in views(run):
+        if v.topic in METRICS:
+            out[v.topic][v.message["tick"]] = v.message
+    return out
+
+
+@pytest.mark.parametrize("text", [TINY_PEOPLE, CROSSING])
+def test_a_fast_run_is_plotted_at_most_plot_rate_times_a_second(
+    text: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """500 ticks/s, cycles at 30/s: of every 1/PLOT_RATE s of wall clock, the latest tick's
+    messages go out (they are the export's of that tick), the ticks between are never computed,
+    and the run's last tick goes out at the end."""
+    run = reference_log(text)
+    view, elapsed, computed = _plotted(run, 2_000_000, 33_333_333, monkeypatch)
+    exported, last = _exported(run), run.ticks[-1][1].tick
+    assert set(view.sent) == set(exported)  # every topic the run has
+    for topic, sent in view.sent.items():
+        ticks = [v.message["tick"] for v in sent]
+        assert all(a < b for a, b in itertools.pairwise(ticks)) and ticks[-1] == last, topic
+        assert all(v.message == exported[topic][v.message["tick"]] for v in sent), topic
+        # One per 1/PLOT_RATE s slot (PLOT_RATE × elapsed + 1 slots at most), and the run's
+        # last tick, which may share its slot with an earlier one.
+        assert PLOT_RATE * elapsed - 1 <= len(ticks) <= PLOT_RATE * elapsed + 2, (topic, ticks)
+        assert computed == len(ticks)  # the ticks left out were never computed
+    assert view.dropped == view.skipped == 0
+
+
+@pytest.mark.parametrize("cycle_ms", [33, 200])  # the builder at its pace, and lagging behind
+def test_a_run_slower_than_plot_rate_has_every_tick_plotted(
+    cycle_ms: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """20 ticks/s (realtime at dt 0.05) is under PLOT_RATE: every tick goes out, as exported,
+    however many of them one cycle finds waiting."""
+    run = reference_log(TINY_PEOPLE)
+    view, _elapsed, computed = _plotted(run, 50_000_000, cycle_ms * 1_000_000, monkeypatch)
+    exported = _exported(run)
+    assert set(view.sent) == set(exported)
+    for topic, sent in view.sent.items():
+        assert [v.message for v in sent] == [exported[topic][r.tick] for _ns, r in run.ticks]
+    assert computed == len(run.ticks)
+
+
 @pytest.fixture(scope="session")
 def live_client(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """tests/live/client.mjs with its pinned packages installed (`npm ci`) in a folder of its
@@ -218,14 +308,12 @@ def test_foxglove_client_sees_the_run_the_log_records(tmp_path: Path, live_clien
         assert np.array_equal(np.array(moved), np.round(traj.positions[tick], 4)), tick
     assert compared >= 20, compared  # 800 ticks, drawn at a frame rate of the wall clock
 
-    # The metrics are the exported file's, message for message, for every tick since the
-    # client subscribed (dt 0.05 s: the export writes every tick), up to the last.
+    # The metrics are the exported file's of their ticks (dt 0.05 s: the export writes every
+    # tick), at most PLOT_RATE ticks a second of wall clock, in order, up to the run's last.
     exported = _exported_metrics(sibling(out))
     for topic in METRICS:
-        ticks = [m["message"]["tick"] for m in got[topic]]
-        assert ticks == list(range(ticks[0], scenario.steps)), topic
-        assert ticks[0] < scenario.steps // 2, topic
-        assert all(m["message"] == exported[topic][m["message"]["tick"]] for m in got[topic])
+        ticks = _assert_plotted(got[topic], exported[topic], scenario.steps)
+        assert ticks[0] < scenario.steps // 2, (topic, ticks[:3])
     assert json.loads(stdout)["steps"] == scenario.steps
 
     # The filter's activity is the log's filtered flags, and the filter acts in this run.
@@ -233,10 +321,27 @@ def test_foxglove_client_sees_the_run_the_log_records(tmp_path: Path, live_clien
     for m in got[FILTER]:
         flags = records[m["message"]["tick"]].filtered
         assert [a["value"] for a in m["message"]["agents"]] == [int(f) for f in flags]
-    assert sum(m["message"]["value"] for m in got[FILTER]) > 50
+    assert sum(sum(r.filtered) for r in records.values()) > 50
+    assert any(m["message"]["value"] for m in got[FILTER])  # of the ticks plotted live too
 
 
 FORMATION_ERROR_TOPIC = "/shoal/metrics/formation_error"
+
+
+def _assert_plotted(
+    got: list[dict[str, Any]], exported: dict[int, dict[str, Any]], steps: int
+) -> list[int]:
+    """A metric topic as a client saw it: each message the exported one of its tick, ticks in
+    order up to the run's last, at most one per 1/PLOT_RATE s slot of their stamps but for the
+    last (S s of stamps meet at most PLOT_RATE × S + 2 slots; the last, + 1). Returns the
+    ticks."""
+    ticks = [m["message"]["tick"] for m in got]
+    assert ticks and all(a < b for a, b in itertools.pairwise(ticks)), ticks
+    assert ticks[-1] == steps - 1, ticks
+    assert all(m["message"] == exported[m["message"]["tick"]] for m in got)
+    span = (int(got[-1]["timestamp"]) - int(got[0]["timestamp"])) / 1e9
+    assert len(ticks) <= PLOT_RATE * span + 3, (len(ticks), span)
+    return ticks
 
 
 @pytest.mark.integration
@@ -265,8 +370,10 @@ def test_a_secured_run_serves_the_worlds_events(tmp_path: Path, live_client: Pat
     assert client.returncode == 0, client.stderr
     assert json.loads(stdout)["secure"] is True
     got = [json.loads(line) for line in client.stdout.splitlines()[1:]]
-    ticks = [m["message"]["tick"] for m in got if m["topic"] == FORMATION_ERROR_TOPIC]
-    assert ticks == list(range(50)), ticks  # subscribed before the run began: every tick
+    # Subscribed before the run began (its first 1/PLOT_RATE s: the latest tick of those).
+    plotted = [m for m in got if m["topic"] == FORMATION_ERROR_TOPIC]
+    exported = _exported_metrics(sibling(out))[FORMATION_ERROR_TOPIC]
+    _assert_plotted(plotted, exported, 50)
     world = [(m["message"]["name"], m["message"]["message"]) for m in got if m["topic"] == LOG]
     assert world.count(("world", "tick 50: run finished; 0 bad messages dropped")) == 1, world
 
@@ -321,18 +428,17 @@ def test_a_replay_serves_the_logged_run_at_its_pace(tmp_path: Path, live_client:
         compared += 1
     assert compared >= 20, compared  # 2.8 s of replay, drawn at up to 30 frames a second
 
-    exported: dict[str, dict[int, dict[str, Any]]] = defaultdict(dict)
-    for v in views(run):
-        if v.topic in METRICS:
-            exported[v.topic][v.message["tick"]] = v.message
+    # Records 3.5 ms apart (285 a second): the metrics are decimated to PLOT_RATE a second
+    # as a fast run's are (every tick would need -r 0.2, 28 s of replay).
+    exported = _exported(run)
     for topic in METRICS:
-        ticks = [m["message"]["tick"] for m in got[topic]]
-        assert ticks == list(range(ticks[0], s.steps)) and ticks[0] < 100, (topic, ticks[:3])
-        assert all(m["message"] == exported[topic][m["message"]["tick"]] for m in got[topic])
+        ticks = _assert_plotted(got[topic], exported[topic], s.steps)
+        assert ticks[0] < 100, (topic, ticks[:3])
     for m in got[FILTER]:
         flags = records[m["message"]["tick"]].filtered
         assert [a["value"] for a in m["message"]["agents"]] == [int(f) for f in flags]
-    assert sum(m["message"]["value"] for m in got[FILTER]) > 50
+    assert sum(sum(r.filtered) for r in records.values()) > 50
+    assert any(m["message"]["value"] for m in got[FILTER])  # of the ticks plotted live too
 
     # Stamped by the replay's wall clock (not the log's, months earlier), at the log's pace
     # over 2: 2.8 s from the first tick to the last (at rate 1 it would be 5.6 s, at 4 1.4 s).
@@ -389,3 +495,34 @@ def test_live_without_the_sdk_says_how_to_install_it(tmp_path: Path) -> None:
         "Error: --live needs the Foxglove SDK: pip install 'shoal[live]' (or foxglove-sdk)"
     ]
     assert not out.exists()
+
+
+def test_records_before_a_late_summary_still_reach_the_live_view() -> None:
+    """A world that exits right after its summary is seen by the monitor's process check first;
+    the records and events still queued before the summary (the "run finished" event among them)
+    go to the live view all the same, in order, and what follows the summary does not."""
+    from shoal.bus.keys import Keys
+    from shoal.bus.runtime import Arrival, ArrivalKind, Inbox
+    from shoal.tools.procs.launch import _late_summary
+
+    keys, inbox = Keys("late"), Inbox()
+    summary = codec.encode_document("summary", {"collisions": 0})
+    for kind, key, payload in [
+        (ArrivalKind.DATA, keys.tick, b"tick 49"),
+        (ArrivalKind.DOWN, keys.alive_world, b""),
+        (ArrivalKind.DATA, keys.event, b"run finished"),
+        (ArrivalKind.DATA, keys.summary, summary),
+        (ArrivalKind.DATA, keys.event, b"after"),
+    ]:
+        inbox.put(Arrival(kind, key, payload, time_ns=len(payload)))
+    handed: list[tuple[str, int, bytes]] = []
+
+    class Sink:
+        def tick(self, ns: int, payload: bytes) -> None:
+            handed.append(("tick", ns, payload))
+
+        def event(self, ns: int, payload: bytes) -> None:
+            handed.append(("event", ns, payload))
+
+    assert _late_summary(inbox, keys, within=0.0, sink=Sink()) == {"collisions": 0}
+    assert handed == [("tick", 7, b"tick 49"), ("event", 12, b"run finished")]

@@ -11,8 +11,10 @@ message for a client that does not keep up, so a slow viewer costs the run nothi
 What it costs without a viewer: decoding the records (trails need their points). With one: the
 views of the channels someone subscribed to, and no others; the scene at most ``frame_hz`` times
 and the trails ``trail_hz`` times per second of wall clock, whatever the run's speed; the metrics
-of every tick the export writes, computed in one batch per frame. If the thread falls behind,
-the queue keeps the newest ``BACKLOG`` records and drops older ones (counted in ``dropped``).
+at most ``plot_rate`` ticks' worth per second of wall clock (of the ticks the export writes, the
+latest of each ``1/plot_rate`` s: every one in a run slower than that, and the run's last),
+computed in one batch per frame; the ticks in between are never computed. If the thread falls
+behind, the queue keeps the newest ``BACKLOG`` records and drops older ones (``dropped``).
 
 The messages are JSON on the export's topics with the export's schemas (Foxglove's own JSON
 schemas for ``foxglove.*``): a live message and the exported one of the same tick are the same
@@ -53,6 +55,10 @@ from shoal.world.scenario import Scenario
 DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket connection
 FRAME_HZ = 30.0  # wall clock: agents, frames and graph, at most
 TRAIL_HZ = 2.0  # wall clock: the trails (messages that grow with the run), at most
+# Wall clock: the metrics, ticks a second at most (a message per topic each). As the scene: a
+# Plot panel gains nothing from more points than frames, and the plots keep up with the scene's
+# tick; a slower run (realtime at dt 0.05 s: 20 ticks/s) still has every tick plotted.
+PLOT_RATE = FRAME_HZ
 BACKLOG = 4096  # records waiting for the publisher thread; the oldest go beyond it
 STOP_WAIT_S = 1.0  # for the server to close its connections at the end
 SCENE = (FRAMES, AGENTS, GRAPH)
@@ -112,10 +118,11 @@ class LiveView:
         options: ViewOptions | None = None,
         frame_hz: float = FRAME_HZ,
         trail_hz: float = TRAIL_HZ,
+        plot_rate: float = PLOT_RATE,
         source: str = "live",
     ) -> None:
         self.host, self.port = host, port
-        self.stream = Stream(scenario, time.time_ns(), options or ViewOptions())
+        self.stream = Stream(scenario, time.time_ns(), options or ViewOptions(), plot_rate)
         self.frame_s, self.trail_s = 1.0 / frame_hz, 1.0 / trail_hz
         self.dropped = 0  # records the publisher thread was too late for
         self.skipped = 0  # records on our keys that did not decode or fit the scenario
@@ -230,7 +237,7 @@ class LiveView:
                 continue
             if s.latest is not None and record.tick < s.latest.record.tick:
                 # The run starts again (shoal replay --loop): so do its views and trails.
-                s = self.stream = Stream(s.scenario, ns, s.options)
+                s = self.stream = Stream(s.scenario, ns, s.options, s.plot_rate)
                 self._subs.redraw_static()
             self._publish(s.take(ns, record))
             self._fresh = True

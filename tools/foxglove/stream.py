@@ -6,12 +6,17 @@ time of the record they show (here: when the supervisor received it, as the logg
 *when* a layer is drawn differs. The export draws the scene at fixed ticks (20 Hz of simulated
 time); a live viewer wants at most a screen's rate of wall-clock time, whatever the run's speed,
 so the caller (tools/foxglove/live.py) asks for the scene when it wants one, and gets the latest
-record drawn. The metrics keep the export's decimation (every ``plot`` ticks): every record is
-taken, and the ones due are computed in one batch when asked for. Nothing here does I/O.
+record drawn. The metrics keep the export's decimation (every ``plot`` ticks) and, with a
+``plot_rate``, thin it to the wall clock too: of the records due in one slot of ``1/plot_rate`` s
+of their stamps, only the latest is kept (its messages are the export's of that tick), so a run
+at hundreds of ticks a second costs at most ``plot_rate`` messages per second and topic, and a
+run slower than that loses none. The records kept are computed in one batch when asked for; the
+others are never computed. Nothing here does I/O.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,6 +58,7 @@ class Stream:
     scenario: Scenario
     start_ns: int  # stamps the layers drawn once
     options: ViewOptions = field(default_factory=ViewOptions)
+    plot_rate: float | None = None  # metrics per second of stamps, at most; None: every due tick
     layers: Layers = field(init=False)
     latest: _Latest | None = field(init=False, default=None)
     drawn: tuple[int, FloatArray] | None = field(init=False, default=None)  # tick, positions
@@ -60,6 +66,7 @@ class Stream:
     history: list[list[Json]] = field(init=False)  # trails: agents, then moving obstacles
     spacing: int = field(init=False)  # ticks between two points of a trail
     plot: int = field(init=False)  # ticks between two messages of a scalar channel
+    plotted: tuple[int, int] | None = field(init=False, default=None)  # slot, tick last computed
 
     def __post_init__(self) -> None:
         s = self.scenario
@@ -83,7 +90,7 @@ class Stream:
                 h.append(p)
                 del h[: -self.options.trail_points]
         if r.tick % self.plot == 0:
-            self.due.append((ns, r))
+            self._due(ns, r)
         self.latest = _Latest(ns, r, where, tracked)
         changes = changes_between(self.scenario, prev, r)
         return [View(LOG, ns, log(ns, level, text, name)) for level, name, text in changes]
@@ -117,11 +124,18 @@ class Stream:
 
     def metrics(self, *, final: bool = False) -> list[View]:
         """The scalar channels of every record due since the last call, in tick order; with
-        ``final``, of the latest record too, as the export writes the run's last tick."""
+        ``final``, of the latest record too (if not computed yet), as the export writes the
+        run's last tick: the one message that may share a slot with an earlier one."""
         at = self.latest
-        if final and at is not None and at.record.tick % self.plot != 0:
-            self.due.append((at.ns, at.record))
+        if final and at is not None:
+            pending = self.due[-1][1] if self.due else None
+            done = self.plotted is not None and self.plotted[1] == at.record.tick
+            if pending is not at.record and not done:
+                self._due(at.ns, at.record, final=True)
         due, self.due = self.due, []
+        if not due:
+            return []
+        self.plotted = (self._slot(due[-1][0]), due[-1][1].tick)
         batch = plots(self.scenario, [r for _ns, r in due])
         pairs = zip(due, batch, strict=True)
         return [View(t, ns, m) for (ns, _r), msgs in pairs for t, m in msgs.items()]
@@ -129,6 +143,24 @@ class Stream:
     def skip_metrics(self) -> None:
         """Forget the records due: nobody is looking at the plots."""
         self.due.clear()
+
+    def _due(self, ns: int, r: TickRecord, *, final: bool = False) -> None:
+        """Keep ``r`` for the metrics: with a ``plot_rate``, as the latest of its slot, unless
+        that slot's message has gone out already (``final``: even then)."""
+        if self.plot_rate is not None:
+            slot = self._slot(ns)
+            if self.plotted is not None and slot <= self.plotted[0] and not final:
+                return  # this slot's message is out: the next slot has the next one
+            if self.due and self._slot(self.due[-1][0]) == slot:
+                self.due[-1] = (ns, r)  # a later tick of the same slot replaces the earlier
+                return
+        self.due.append((ns, r))
+
+    def _slot(self, ns: int) -> int:
+        """Which ``1/plot_rate`` s of stamps since ``start_ns`` holds ``ns`` (0 without a rate)."""
+        if self.plot_rate is None:
+            return 0
+        return math.floor((ns - self.start_ns) * self.plot_rate / 1e9)
 
     def _velocities(self, r: TickRecord) -> list[list[float]]:
         """As the export draws them: each agent's velocity averaged since the previous drawing
