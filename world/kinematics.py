@@ -63,7 +63,9 @@ def sense_all(
 
 
 def _within(a: Vector, b: Vector, radius: float) -> bool:
-    """‖a − b‖ ≤ radius, the norm summed in numpy's order (sqrt of Σ (a_k − b_k)², k = 0, 1, …)."""
+    """‖a − b‖ ≤ radius, the norm summed in numpy's order (sqrt of Σ (a_k − b_k)², k = 0, 1, …):
+    the bits of geometry's ``norm(sub(a, b))``, which takes arrays too and, compiled, made
+    sense_all twice as slow (16–19 against 29–35 µs for 5 agents and 3 obstacles, measured)."""
     total = 0.0
     for k in range(len(a)):
         d = a[k] - b[k]
