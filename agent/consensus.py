@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-from shoal.bus.geometry import PointsLike, VectorLike, add, dot, norm, scale, sub
+from shoal.bus.geometry import PointsLike, VectorLike, add, dot, floats, norm, scale, sub
 
 # A passage is only entered if the heading crosses the gap at least this steeply:
 # cos of the angle between the heading and the line through the two centres.
@@ -69,6 +69,11 @@ def passage_bid(
     these, an agent beside a pair, whose heading is dominated by the formation's own reshaping,
     bids and unbids every epoch, and σ flips for good (docs/safety.md, liveness).
     """
+    # Arrays (a campaign's gap check passes them) as plain floats, for the compiled module.
+    position, heading, radii, slot_shift = (
+        floats(v) for v in (position, heading, radii, slot_shift)
+    )
+    centres = [floats(c) for c in centres]
     speed = norm(heading)
     if speed < (BID_SPEED if strict else 1e-9) or formation_radius <= 0.0:
         return 1.0

@@ -41,6 +41,12 @@ def dot(a: VectorLike, b: VectorLike) -> float:
     return s
 
 
+def floats(v: VectorLike) -> Sequence[float]:
+    """A (dim,) vector as plain floats (an array's ``tolist()``, the same values): compiled code
+    that compares elements of an array gets numpy.bool where mypyc expects a bool, a TypeError."""
+    return v.tolist() if isinstance(v, np.ndarray) else v
+
+
 def norm(v: VectorLike) -> float:
     """‖v‖ of a (dim,) vector: sqrt(v · v) with :func:`dot`; portable where np.linalg.norm is
     not."""

@@ -38,6 +38,8 @@ for base in ("obstacles", "crossing"):
     for seed in (0, 1):
         field = make_field(load_scenario(base), seed, "inside", FieldOptions())
         out[f"{base}/{seed}"] = simulate(field).digest()
+# A gap field: drawing it asks passage_bid about numpy arrays (a TypeError once, compiled).
+out["obstacles/gap/0"] = simulate(make_field(load_scenario("obstacles"), 0, "gap", FieldOptions())).digest()
 """  # noqa: E501
 
 
@@ -81,7 +83,7 @@ def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
     exec(DIGESTS, here)  # the same code, in this process
     pure = here["out"]
     assert set(compiled) == {"obstacles", "passage", "crossing", "obstacles/0", "obstacles/1",
-                             "crossing/0", "crossing/1"}  # fmt: skip
+                             "crossing/0", "crossing/1", "obstacles/gap/0"}  # fmt: skip
     assert compiled == pure
     assert pure["obstacles"] == simulate(load_scenario("obstacles")).digest()
 
