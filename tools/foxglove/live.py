@@ -60,6 +60,7 @@ TRAIL_HZ = 2.0  # wall clock: the trails (messages that grow with the run), at m
 # tick; a slower run (realtime at dt 0.05 s: 20 ticks/s) still has every tick plotted.
 PLOT_RATE = FRAME_HZ
 BACKLOG = 4096  # records waiting for the publisher thread; the oldest go beyond it
+FLUSH_S = 0.5  # s for the server to send the last cycle's messages before it stops
 STOP_WAIT_S = 1.0  # for the server to close its connections at the end
 SCENE = (FRAMES, AGENTS, GRAPH)
 # Compact UTF-8 JSON, as the export writes it; a NaN (not JSON) is an error.
@@ -186,6 +187,10 @@ class LiveView:
         self._thread.join()
         if kind is None:
             self._cycle(final=True)  # the run's last state, drawn in full
+            if self._subs.any(*self._channels):
+                # The server has no flush: what it still queues when stop() begins is lost (a
+                # replay ends right after its last record, and lost its last ticks' views).
+                time.sleep(FLUSH_S)
         if self._server is not None:
             # stop() waits for each client to close, and a slow one reads its backlog first:
             # stopping goes on without us after STOP_WAIT_S (the process's exit ends it).
