@@ -3,8 +3,9 @@
 
 Everything else about the package is in pyproject.toml. The modules in ``COMPILED`` run for every
 agent every tick: the controller, the safety filter and the small-vector arithmetic. mypyc
-compiles them from the same type-annotated Python into C extensions; the Python stays beside
-them in the package and is what runs wherever they are missing. Either gives the same bits:
+compiles them, and the messages they pass each other (bus/messages.py), from the same
+type-annotated Python into C extensions; the Python stays beside them in the package and is
+what runs wherever they are missing. Either gives the same bits:
 
 - every compiled operation is the interpreter's own (IEEE-754 double +, −, ×, ÷, sqrt, libm's
   sin/cos/exp), in the same order;
@@ -31,6 +32,7 @@ ROOT = Path(__file__).resolve().parent
 # (folder in the repository, package) as pyproject.toml maps them.
 TREE = {"src/shoal": "shoal", "agent": "shoal/agent", "bus": "shoal/bus", "world": "shoal/world"}
 COMPILED = [
+    "shoal/bus/messages.py",
     "shoal/bus/geometry.py",
     "shoal/bus/safety.py",
     "shoal/agent/formation.py",

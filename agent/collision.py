@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Final
 
 from shoal.bus.geometry import PointsLike, Vector, VectorLike, dot, norm, scale, sub
 
@@ -79,14 +80,20 @@ def evasive_offset(
     return scale(magnitude, direction)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(init=False, slots=True, unsafe_hash=True)
 class Evasion:
     """An evasive episode: the obstacle evaded and u^o, set at τ_i (grown by ``_ratchet``)."""
 
-    obstacle_id: int
-    centre: Vector
-    radius: float
-    offset: Vector
+    obstacle_id: Final[int]
+    centre: Final[Vector]
+    radius: Final[float]
+    offset: Final[Vector]
+
+    def __init__(self, obstacle_id: int, centre: Vector, radius: float, offset: Vector) -> None:
+        self.obstacle_id = obstacle_id
+        self.centre = centre
+        self.radius = radius
+        self.offset = offset
 
 
 def _ratchet(

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 
@@ -26,19 +27,13 @@ from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import detour, lead
 from shoal.bus.geometry import FloatArray, Vector, VectorLike, segment_distance, shaped_vector, sub
+from shoal.bus.messages import AgentState, Command, Sensing
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
-from shoal.bus.types import (
-    AgentConfig,
-    AgentState,
-    Command,
-    Sensing,
-    Waypoints,
-    config_problem,
-)
+from shoal.bus.types import AgentConfig, Waypoints, config_problem
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(init=False, slots=True, unsafe_hash=True)
 class Memory:
     """What an agent carries from one tick to the next.
 
@@ -51,13 +46,31 @@ class Memory:
     route : a leader's waypoints still to go (with the safety filter), else None.
     """
 
-    heading: Vector
-    evasion: Evasion | None
-    bid: float
-    sigma_consensus: float
-    busy: int = 0
-    route: tuple[FloatArray, ...] | None = None
-    calm: int = 0
+    heading: Final[Vector]
+    evasion: Final[Evasion | None]
+    bid: Final[float]
+    sigma_consensus: Final[float]
+    busy: Final[int]
+    route: Final[tuple[FloatArray, ...] | None]
+    calm: Final[int]
+
+    def __init__(
+        self,
+        heading: Vector,
+        evasion: Evasion | None,
+        bid: float,
+        sigma_consensus: float,
+        busy: int = 0,
+        route: tuple[FloatArray, ...] | None = None,
+        calm: int = 0,
+    ) -> None:
+        self.heading = heading
+        self.evasion = evasion
+        self.bid = bid
+        self.sigma_consensus = sigma_consensus
+        self.busy = busy
+        self.route = route
+        self.calm = calm
 
 
 # With the safety filter u^o grows to at most this many times r_j + ρ + ε (agent/collision.py):

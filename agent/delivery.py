@@ -19,7 +19,7 @@ import random
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
-from shoal.bus.types import AgentState
+from shoal.bus.messages import AgentState
 
 MAX_AGE = 10
 """Ticks after which a neighbour's latest state is no longer followed (0.1 s at dt = 0.01 s).

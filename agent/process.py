@@ -28,10 +28,11 @@ from shoal.agent.errors import ConfigError
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
+from shoal.bus.messages import AgentState, Sensing
 from shoal.bus.report import pss_kb, report_body
 from shoal.bus.runtime import Arrival, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import AgentConfig, AgentState, Sensing
+from shoal.bus.types import AgentConfig
 
 
 class AgentAbort(RuntimeError):

@@ -18,20 +18,15 @@ from typing import Any, TypeVar
 import msgpack
 
 from shoal.bus.errors import DecodeError
+from shoal.bus.messages import AgentState, Command, Event, Mover, Sensing, TickRecord
 from shoal.bus.types import (
     AgentConfig,
-    AgentState,
     Clock,
-    Command,
     ControlParams,
-    Event,
-    Mover,
     PathSpec,
     Reshape,
     Safety,
-    Sensing,
     Sinusoid,
-    TickRecord,
     Vector,
     Waypoints,
     config_problem,

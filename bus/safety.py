@@ -29,9 +29,11 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Final
 
 from shoal.bus.geometry import right_of, vdot
-from shoal.bus.types import Mover, Sensing, Vector
+from shoal.bus.messages import Mover, Sensing
+from shoal.bus.types import Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
 # only keeps an exactly-on-the-boundary solution from failing its own check.
@@ -46,19 +48,27 @@ SIDESTEP_BELOW = 0.25
 _LAMBDA_TOLERANCE = 1e-12
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(init=False, slots=True, unsafe_hash=True)
 class Row:
     """One half-space g · u · dt ≥ h: ``normal`` g a unit (dim,) vector, ``bound`` h, m (≤ 0
     except for a moving obstacle's row); ``obstacle``: the row of an obstacle (else of another
     agent); ``moving``: of a moving obstacle."""
 
-    normal: Vector
-    bound: float
-    obstacle: bool = False
-    moving: bool = False
+    normal: Final[Vector]
+    bound: Final[float]
+    obstacle: Final[bool]
+    moving: Final[bool]
+
+    def __init__(
+        self, normal: Vector, bound: float, obstacle: bool = False, moving: bool = False
+    ) -> None:
+        self.normal = normal
+        self.bound = bound
+        self.obstacle = obstacle
+        self.moving = moving
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(init=False, slots=True, unsafe_hash=True)
 class Filtered:
     """The filter's answer: the velocity to hold (m/s), and whether it differs from the nominal
     (``active``). ``fallback`` is True when no active set passed its checks and the agent is
@@ -66,10 +76,18 @@ class Filtered:
     no velocity within the speed limit met a moving obstacle's row, and the agent keeps
     passive safety instead (:func:`evade`)."""
 
-    velocity: Vector
-    active: bool
-    fallback: bool = False
-    cornered: bool = False
+    velocity: Final[Vector]
+    active: Final[bool]
+    fallback: Final[bool]
+    cornered: Final[bool]
+
+    def __init__(
+        self, velocity: Vector, active: bool, fallback: bool = False, cornered: bool = False
+    ) -> None:
+        self.velocity = velocity
+        self.active = active
+        self.fallback = fallback
+        self.cornered = cornered
 
 
 def _unit_away(own: Vector, other: Vector, axis_sign: float) -> tuple[Vector, float]:

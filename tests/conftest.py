@@ -23,8 +23,8 @@ import zenoh
 from shoal.bus import codec
 from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe
+from shoal.bus.messages import Event
 from shoal.bus.runtime import Inbox
-from shoal.bus.types import Event
 from shoal.bus.zconfig import zenoh_config
 from shoal.tools.procs.launch import free_port
 from shoal.tools.procs.procfs import PPID, START_TIME, STATE, stat_fields

@@ -16,8 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from shoal.bus.messages import Sensing
 from shoal.bus.safety import Row, rows_for
-from shoal.bus.types import Sensing, Vector
+from shoal.bus.types import Vector
 
 Filter = Callable[..., tuple[float, ...]]
 SLACK = 1e-9  # m: what the whole-step checks allow for rounding (the filter's own is 1e-12)

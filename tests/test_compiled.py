@@ -18,6 +18,7 @@ from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
 
 COMPILED = [
+    "shoal.bus.messages",
     "shoal.bus.geometry",
     "shoal.bus.safety",
     "shoal.agent.formation",
@@ -86,6 +87,46 @@ def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
                              "crossing/0", "crossing/1", "obstacles/gap/0"}  # fmt: skip
     assert compiled == pure
     assert pure["obstacles"] == simulate(load_scenario("obstacles")).digest()
+
+
+RECORDS = """
+import dataclasses, json
+from shoal.agent.controller import Controller
+from shoal.bus.messages import AgentState
+from shoal.world.loader import load_scenario
+a = AgentState(agent_id=1, tick=2, position=(0.5, -1.0), omega=False, bid=1.0, sigma=2.0, theta=0.0)
+b = dataclasses.replace(a, tick=3)
+memory = Controller(load_scenario("default").agent_config(2)).start()
+out = {
+    "equal": a == AgentState(1, 2, (0.5, -1.0), False, 1.0, 2.0, 0.0), "differ": a != b,
+    "hash": hash(a) == hash(AgentState(1, 2, (0.5, -1.0), False, 1.0, 2.0, 0.0)),
+    "repr": repr(b), "fields": [f.name for f in dataclasses.fields(memory)],
+}
+try:
+    a.tick = 5  # type: ignore[misc]
+    out["assigned"] = True
+except AttributeError:
+    out["assigned"] = False
+out["tick"] = a.tick
+print(json.dumps(out))
+"""
+
+
+def test_the_messages_keep_their_dataclass_behaviour_in_both_builds(installed: Path) -> None:
+    """The per-tick records (bus/messages.py, the controller's Memory) have their own
+    ``__init__`` for speed: equality, hashing, repr, fields and replace are the dataclass's in
+    either build, and compiled, a field cannot be assigned (``Final``)."""
+    compiled, pure = (json.loads(_run(RECORDS, site)) for site in (installed, None))
+    for out in (compiled, pure):
+        assert out["equal"] and out["differ"] and out["hash"]
+        assert out["repr"] == (
+            "AgentState(agent_id=1, tick=3, position=(0.5, -1.0), omega=False, bid=1.0, "
+            "sigma=2.0, theta=0.0)"
+        )
+        assert out["fields"] == ["heading", "evasion", "bid", "sigma_consensus", "busy", "route",
+                                 "calm"]  # fmt: skip
+    if _compiler():
+        assert compiled["assigned"] is False and compiled["tick"] == 2
 
 
 def test_the_filter_benchmark_sees_the_compiled_controllers_calls(installed: Path) -> None:

@@ -11,7 +11,7 @@ import pytest
 from shoal.agent.controller import Controller, Memory
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, velocity
-from shoal.bus.types import AgentState, Sensing
+from shoal.bus.messages import AgentState, Sensing
 from shoal.world.loader import scenario_from_dict
 from shoal.world.scenario import REALTIME_TICKS_PER_ROUND, Scenario
 

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from conftest import shortened
 
 from shoal.agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
-from shoal.bus.types import AgentState
+from shoal.bus.messages import AgentState
 from shoal.tools.cli import main
 
 

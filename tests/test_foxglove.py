@@ -28,7 +28,7 @@ from mcap.reader import make_reader
 
 from shoal.bus import codec
 from shoal.bus.keys import Keys
-from shoal.bus.types import Event, TickRecord
+from shoal.bus.messages import Event, TickRecord
 from shoal.tools.cli import main
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.foxglove.msgs import arrow, dashes, vec3s

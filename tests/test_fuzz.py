@@ -57,18 +57,8 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError, WireError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.links import publisher
-from shoal.bus.types import (
-    AgentConfig,
-    AgentState,
-    Command,
-    ControlParams,
-    Event,
-    Reshape,
-    Sensing,
-    Sinusoid,
-    TickRecord,
-    Waypoints,
-)
+from shoal.bus.messages import AgentState, Command, Event, Sensing, TickRecord
+from shoal.bus.types import AgentConfig, ControlParams, Reshape, Sinusoid, Waypoints
 from shoal.world.errors import ScenarioError, ScenarioWarning
 from shoal.world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
 from shoal.world.scenario import Scenario

@@ -97,7 +97,7 @@ def test_malformed_commands_are_counted_and_dropped_and_change_nothing() -> None
 
 
 def codec_event() -> Any:
-    from shoal.bus.types import Event
+    from shoal.bus.messages import Event
 
     return Event(0, 2, 0, "not a command")
 

@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 
 from shoal.bus import codec, safety
 from shoal.bus.errors import DecodeError
+from shoal.bus.messages import Mover, Sensing, TickRecord
 from shoal.bus.safety import mover_row, safe_velocity
-from shoal.bus.types import Mover, Sensing, TickRecord
 from shoal.tools.simulator import simulate
 from shoal.world.contacts import TOWARDS, contacts
 from shoal.world.errors import ScenarioError

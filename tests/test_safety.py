@@ -21,6 +21,7 @@ from safety_cases import (
     unit,
 )
 
+from shoal.bus.messages import Sensing
 from shoal.bus.safety import (
     Row,
     agent_row,
@@ -29,7 +30,6 @@ from shoal.bus.safety import (
     safe_velocity,
     satisfies,
 )
-from shoal.bus.types import Sensing
 from shoal.world.kinematics import sense_all
 
 
@@ -119,7 +119,7 @@ def test_rows_have_the_geometry_of_the_theorem() -> None:
 
 
 def test_a_head_on_nominal_stops_at_the_guard_and_slides_along_it() -> None:
-    from shoal.bus.types import Sensing
+    from shoal.bus.messages import Sensing
 
     s = Sensing(0, (0.0, 0.0), (0,), ((2.0, 0.0),), (1.0,))
     dt, rho = 0.1, 0.5  # guard 1.5: 0.5 m of free way
@@ -146,7 +146,7 @@ def _behind_an_obstacle(previous: bool, dim: int) -> tuple[int | None, float]:
     v = −β sign(p − goal) per coordinate (which turns from tick to tick) through the filter;
     returns the tick at which it is within 0.1 m of the goal (None: never, in 600 ticks) and
     the least clearance beyond the guard."""
-    from shoal.bus.types import Sensing
+    from shoal.bus.messages import Sensing
 
     centre, radius, rho, dt, beta = (0.0,) * dim, 1.0, 0.2, 0.02, 3.0
     goal = np.array([3.0] + [0.0] * (dim - 1))
@@ -251,7 +251,7 @@ def _pair_step(
     right_hand: bool,
 ) -> np.ndarray:
     """Agent i's filtered velocity with the one other agent (id 3 − i) in sight."""
-    from shoal.bus.types import Sensing
+    from shoal.bus.messages import Sensing
 
     seen = Sensing(tick, tuple(me.tolist()), (), (), (), (3 - i,), (tuple(other.tolist()),))
     out = safe_velocity(tuple(nominal.tolist()), seen, i, dt=dt, margin=0.2,
@@ -283,7 +283,7 @@ def test_two_agents_head_on_pass_each_other_to_their_right() -> None:
 
 def test_an_unsafe_start_is_not_made_worse() -> None:
     """An agent already inside a guard (which the loader refuses) may not move deeper."""
-    from shoal.bus.types import Sensing
+    from shoal.bus.messages import Sensing
 
     s = Sensing(0, (0.0, 0.0), (0,), ((1.0, 0.0),), (0.8,))
     out = safe_velocity((5.0, 1.0), s, 1, dt=0.1, margin=0.2, half_separation=0.1,

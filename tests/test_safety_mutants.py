@@ -12,8 +12,9 @@ import pytest
 from safety_cases import cases, failures
 
 from shoal.bus import safety
+from shoal.bus.messages import Sensing
 from shoal.bus.safety import Filtered, Row, cap_speed, project, rows_for, safe_velocity
-from shoal.bus.types import Sensing, Vector
+from shoal.bus.types import Vector
 
 BATCH = cases(seed=11, count=600)
 

@@ -40,9 +40,9 @@ from conftest import PYTHON, Watcher, json_of, unique
 from shoal.bus import codec
 from shoal.bus.acl import LOGGER, MONITOR, WORLD, agent_name
 from shoal.bus.keys import Keys
+from shoal.bus.messages import AgentState, Command, Event, Sensing
 from shoal.bus.report import reports_in
 from shoal.bus.secure import Identity, Material
-from shoal.bus.types import AgentState, Command, Event, Sensing
 from shoal.bus.zconfig import zenoh_config
 from shoal.tools.deploy.certs import issue, make_material
 from shoal.tools.log.reader import iter_channel, read_documents, read_trajectory

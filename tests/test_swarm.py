@@ -33,8 +33,8 @@ from conftest import (
 from mcap.reader import make_reader
 
 from shoal.bus import codec
+from shoal.bus.messages import AgentState, Sensing
 from shoal.bus.runtime import EXIT_GRACE_S
-from shoal.bus.types import AgentState, Sensing
 from shoal.tools.commands.report import json_safe
 from shoal.tools.log.reader import iter_channel, read_trajectory
 from shoal.tools.procs.reaper import WAIT_S as REAPER_WAIT_S

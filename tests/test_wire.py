@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError, WireError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.types import AgentState, Command, Event, Sensing, TickRecord
+from shoal.bus.messages import AgentState, Command, Event, Sensing, TickRecord
 from shoal.bus.zconfig import zenoh_config
 from shoal.world.loader import builtin_names, load_scenario
 

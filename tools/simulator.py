@@ -16,7 +16,7 @@ import numpy as np
 
 from shoal.agent.controller import Controller
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import AgentState
+from shoal.bus.messages import AgentState
 from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.movers import MoverState

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import Mover, Sensing, Vector
+from shoal.bus.messages import Mover, Sensing
+from shoal.bus.types import Vector
 from shoal.world.kinematics import sense_all
 from shoal.world.movers import Body, Motion, MoverState, advance, plan, start
 from shoal.world.scenario import Scenario

@@ -12,8 +12,9 @@ import math
 from collections.abc import Sequence
 
 from shoal.bus.geometry import FloatArray
+from shoal.bus.messages import Mover, Sensing
 from shoal.bus.safety import safe_velocity
-from shoal.bus.types import ControlParams, Mover, Sensing, Vector
+from shoal.bus.types import ControlParams, Vector
 
 
 def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> FloatArray:

@@ -23,10 +23,11 @@ import numpy as np
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
+from shoal.bus.messages import AgentState, Command, Event, TickRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import AgentState, Clock, Command, Event, TickRecord
+from shoal.bus.types import Clock
 from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.metrics import summarize

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import TickRecord
+from shoal.bus.messages import TickRecord
 
 
 @dataclass(frozen=True)

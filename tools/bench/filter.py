@@ -17,7 +17,8 @@ from unittest import mock
 
 from shoal.agent import controller
 from shoal.bus import safety
-from shoal.bus.types import Sensing, Vector
+from shoal.bus.messages import Sensing
+from shoal.bus.types import Vector
 from shoal.tools import simulator
 from shoal.tools.campaign.fields import make_field
 from shoal.tools.simulator import simulate

@@ -10,7 +10,7 @@ import math
 from typing import Any
 
 from shoal.bus import codec
-from shoal.bus.types import AgentState, Command, Sensing, TickRecord
+from shoal.bus.messages import AgentState, Command, Sensing, TickRecord
 from shoal.world.loader import scenario_from_dict
 from shoal.world.scenario import Scenario
 

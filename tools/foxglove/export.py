@@ -35,8 +35,8 @@ from mcap.writer import CompressionType, Writer
 
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
+from shoal.bus.messages import Event, TickRecord
 from shoal.bus.runtime import warn
-from shoal.bus.types import Event, TickRecord
 from shoal.tools.foxglove.views import (
     SCHEMAS_VERSION,
     TOPICS,

@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.types import Safety, TickRecord
+from shoal.bus.messages import TickRecord
+from shoal.bus.types import Safety
 from shoal.tools.foxglove.msgs import Json
 from shoal.world.metrics import clearances, formation_errors, pair_distances
 from shoal.world.scenario import Scenario

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.bus.geometry import shaped
+from shoal.bus.messages import TickRecord
 from shoal.bus.path import path_positions
-from shoal.bus.types import TickRecord
 from shoal.tools.foxglove.msgs import (
     LINE_LIST,
     LINE_LOOP,

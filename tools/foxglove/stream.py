@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import Event, TickRecord
+from shoal.bus.messages import Event, TickRecord
 from shoal.tools.foxglove.msgs import Json, log, vec3s
 from shoal.tools.foxglove.plots import plots
 from shoal.tools.foxglove.scene import Layers

@@ -10,7 +10,7 @@ from mcap.reader import make_reader
 
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
-from shoal.bus.types import TickRecord
+from shoal.bus.messages import TickRecord
 from shoal.world.trajectory import Trajectory
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.bus.geometry import FloatArray
-from shoal.bus.types import TickRecord
+from shoal.bus.messages import TickRecord
 from shoal.world.metrics import clearances, formation_errors, pair_distances
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory

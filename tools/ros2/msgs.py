@@ -28,7 +28,7 @@ from typing import Any, ClassVar, Protocol, cast
 import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as ros
 
-from shoal.bus.types import TickRecord
+from shoal.bus.messages import TickRecord
 from shoal.tools.foxglove.msgs import RGBA, vec3s
 from shoal.tools.foxglove.scene import EDGE, MOVER, OBSTACLE, PILLAR_M, Layers, frame
 from shoal.tools.foxglove.views import BLOCK, RunLog
