@@ -39,6 +39,7 @@ COMPILED = [
     "shoal/agent/collision.py",
     "shoal/agent/consensus.py",
     "shoal/agent/controller.py",
+    "shoal/agent/leader.py",
     "shoal/world/kinematics.py",
 ]
 # The mypyc runtime shared by the compiled modules: an extension inside shoal, never top level.

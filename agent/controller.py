@@ -19,14 +19,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Final
 
-import numpy as np
-
 from shoal.agent.collision import Evasion, collision_course, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import detour, lead
-from shoal.bus.geometry import FloatArray, Vector, VectorLike, segment_distance, shaped_vector, sub
+from shoal.bus.geometry import Vector, VectorLike, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
@@ -51,7 +49,7 @@ class Memory:
     bid: Final[float]
     sigma_consensus: Final[float]
     busy: Final[int]
-    route: Final[tuple[FloatArray, ...] | None]
+    route: Final[tuple[Vector, ...] | None]
     calm: Final[int]
 
     def __init__(
@@ -61,7 +59,7 @@ class Memory:
         bid: float,
         sigma_consensus: float,
         busy: int = 0,
-        route: tuple[FloatArray, ...] | None = None,
+        route: tuple[Vector, ...] | None = None,
         calm: int = 0,
     ) -> None:
         self.heading = heading
@@ -124,7 +122,7 @@ class Controller:
         path = self.config.path
         route = None
         if self.filtered and isinstance(path, Waypoints):
-            route = tuple(np.asarray(p, dtype=np.float64) for p in path.points[1:])
+            route = tuple([tuple([float(x) for x in p]) for p in path.points[1:]])
         return Memory(
             heading=(0.0,) * self.config.dim,
             evasion=None,
@@ -271,25 +269,20 @@ class Controller:
         return memory, command
 
     def _lead(
-        self, route: tuple[FloatArray, ...], sensing: Sensing, speed: float
-    ) -> tuple[FloatArray, tuple[FloatArray, ...]]:
+        self, route: tuple[Vector, ...], sensing: Sensing, speed: float
+    ) -> tuple[Vector, tuple[Vector, ...]]:
         """The leader's nominal with the safety filter: round any sensed obstacle its next leg
         would cross (keeping r_j + 2ρ + ε from the centre), then on to the next waypoint."""
         p = self.params
-        position = np.asarray(sensing.position, dtype=np.float64)
-        centres = np.asarray(sensing.obstacle_centres, dtype=np.float64).reshape(
-            len(sensing.obstacle_ids), self.config.dim
-        )
-        radii = np.asarray(sensing.obstacle_radii, dtype=np.float64)
         route = detour(
-            position,
+            sensing.position,
             route,
-            centres,
-            radii,
+            sensing.obstacle_centres,
+            sensing.obstacle_radii,
             guard=p.safety_margin,
             clearance=p.safety_margin + p.epsilon,
         )
-        return lead(position, route, speed, self.config.dt)
+        return lead(sensing.position, route, speed, self.config.dt)
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]

@@ -5,7 +5,9 @@ its route; the followers know nothing of it, they follow the leader as always.
 The leader then follows its route by position rather than by the clock: each tick it heads for
 the next waypoint at the path's speed (the last step shortened to land on it), so a leader held
 back by its filter, or sent round an obstacle, still visits every waypoint, in order. Points and
-positions are (dim,) arrays in metres; speeds m/s; dt s.
+positions are (dim,) vectors in metres, plain floats (arrays are taken and turned into floats on
+entry); speeds m/s; dt s. The arithmetic is numpy's elementwise arithmetic, term for term, so
+the bits are what the array version gave.
 
 A detour around obstacle j is a polygon circumscribing the circle of radius R' = r_j + ρ +
 ``clearance`` on the side of the leg away from the centre: the leg to its first vertex and from
@@ -16,78 +18,93 @@ detour keeps R' from the centre (in 3-D the polygon lies in the plane of the leg
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
-import numpy as np
-
-from shoal.bus.geometry import FloatArray, dot, norm, segment_distance
+from shoal.bus.geometry import (
+    Vector,
+    VectorLike,
+    add,
+    dot,
+    floats,
+    norm,
+    scale,
+    segment_distance,
+    sub,
+)
 
 _STEP = math.radians(30.0)  # the polygon's largest turn per vertex
 _REACHED = 1e-9  # m: a waypoint this close counts as visited
 
+Circle = tuple[Vector, float]  # (centre, radius), m
+
 
 def lead(
-    position: FloatArray, route: tuple[FloatArray, ...], speed: float, dt: float
-) -> tuple[FloatArray, tuple[FloatArray, ...]]:
+    position: VectorLike, route: tuple[Vector, ...], speed: float, dt: float
+) -> tuple[Vector, tuple[Vector, ...]]:
     """The leader's velocity towards the next waypoint of ``route``, and the route left.
 
     Waypoints already reached are dropped first; with none left the leader stands still.
     """
-    while route and norm(route[0] - position) <= _REACHED:
+    here = _vector(position)
+    while route and norm(sub(route[0], here)) <= _REACHED:
         route = route[1:]
     if not route:
-        return np.zeros_like(position), route
-    to_next = route[0] - position
+        return (0.0,) * len(here), route
+    to_next = sub(route[0], here)
     dist = norm(to_next)
-    return to_next * (min(speed * dt, dist) / (dist * dt)), route
+    return scale(min(speed * dt, dist) / (dist * dt), to_next), route
 
 
 def detour(
-    position: FloatArray,
-    route: tuple[FloatArray, ...],
-    centres: FloatArray,
-    radii: FloatArray,
+    position: VectorLike,
+    route: tuple[Vector, ...],
+    centres: Sequence[VectorLike],
+    radii: Sequence[float],
     *,
     guard: float,
     clearance: float,
-) -> tuple[FloatArray, ...]:
+) -> tuple[Vector, ...]:
     """``route`` with a detour in front when its next leg passes within r_j + ``guard`` +
     ``clearance``/2 of a sensed obstacle, else as it is. ``guard`` is ρ; the detour keeps
     r_j + ρ + ``clearance`` from the centre of the nearest such obstacle along the leg, round
     its shorter side unless that side's polygon crosses another sensed obstacle, then round the
     longer side, and if both are blocked, round one circle that encloses the obstacles in the
     way. A waypoint inside the circle cannot be gone round: the route is left as it is (the
-    filter stops the leader at the guard)."""
-    if not route or centres.shape[0] == 0:
+    filter stops the leader at the guard). ``centres`` (m, dim) and ``radii`` (m,): the sensed
+    obstacles."""
+    if not route or len(centres) == 0:
         return route
-    circles = [(centres[k], float(radii[k])) for k in range(centres.shape[0])]
+    here = _vector(position)
+    circles = [(_vector(c), float(r)) for c, r in zip(centres, radii)]
     target = route[0]
-    hit = _first_in_way(position, target, circles, guard, clearance)
+    hit = _first_in_way(here, target, circles, guard, clearance)
     for _ in range(len(circles)):
         if hit is None:
             return route
         centre, radius = hit
         keep = radius + guard + clearance
-        if norm(target - centre) <= keep:
+        if norm(sub(target, centre)) <= keep:
             return route  # the waypoint itself is in the way: no detour reaches it
+        polygon: list[Vector] = []
         for longer in (False, True):
-            polygon = _around(position, target, centre, keep, longer=longer)
-            legs = list(zip([position, *polygon], [*polygon, target], strict=True))
+            polygon = _around(here, target, centre, keep, longer=longer)
+            legs = list(zip([here, *polygon], [*polygon, target]))
             if not any(_blocks(a, b, c, r, guard, clearance) for a, b in legs for c, r in circles):
                 return (*polygon, *route)
         hit = _enclosing([hit, *(c for c in circles if _near_polygon(c, polygon, hit))])
     return route
 
 
+def _vector(v: VectorLike) -> Vector:
+    return tuple([float(x) for x in floats(v)])
+
+
 def _first_in_way(
-    position: FloatArray,
-    target: FloatArray,
-    circles: list[tuple[FloatArray, float]],
-    guard: float,
-    clearance: float,
-) -> tuple[FloatArray, float] | None:
+    position: Vector, target: Vector, circles: list[Circle], guard: float, clearance: float
+) -> Circle | None:
     """The obstacle nearest along the leg among those it passes too close to."""
     hits = [
-        (dot(c - position, target - position), i)
+        (dot(sub(c, position), sub(target, position)), i)
         for i, (c, r) in enumerate(circles)
         if _blocks(position, target, c, r, guard, clearance)
     ]
@@ -95,45 +112,50 @@ def _first_in_way(
 
 
 def _blocks(
-    a: FloatArray, b: FloatArray, centre: FloatArray, radius: float, guard: float, clearance: float
+    a: Vector, b: Vector, centre: Vector, radius: float, guard: float, clearance: float
 ) -> bool:
     return segment_distance(centre, a, b) < radius + guard + clearance / 2.0
 
 
-def _near_polygon(
-    circle: tuple[FloatArray, float],
-    polygon: list[FloatArray],
-    around: tuple[FloatArray, float],
-) -> bool:
+def _near_polygon(circle: Circle, polygon: list[Vector], around: Circle) -> bool:
     """``circle`` is another obstacle than ``around`` and within the reach of its detour."""
     centre, radius = circle
     if centre is around[0]:
         return False
-    reach = max(norm(v - around[0]) for v in polygon)
-    return norm(centre - around[0]) - radius < reach
+    reach = max([norm(sub(v, around[0])) for v in polygon])
+    return norm(sub(centre, around[0])) - radius < reach
 
 
-def _enclosing(circles: list[tuple[FloatArray, float]]) -> tuple[FloatArray, float]:
-    """A circle (centre, radius) enclosing every one of ``circles``: about their centroid."""
-    centre = np.mean([c for c, _ in circles], axis=0)
-    radius = max(norm(c - centre) + r for c, r in circles)
-    return np.asarray(centre, dtype=np.float64), radius
+def _enclosing(circles: list[Circle]) -> Circle:
+    """A circle (centre, radius) enclosing every one of ``circles``: about their centroid (the
+    centres summed in order and divided by their count, as numpy's mean over axis 0)."""
+    total = circles[0][0]
+    for c, _ in circles[1:]:
+        total = add(total, c)
+    centre = _divide(total, float(len(circles)))
+    radius = max([norm(sub(c, centre)) + r for c, r in circles])
+    return centre, radius
+
+
+def _divide(v: Vector, d: float) -> Vector:
+    """v / d elementwise (not v · (1/d), which rounds differently)."""
+    return tuple([x / d for x in v])
 
 
 def _around(
-    position: FloatArray, target: FloatArray, centre: FloatArray, radius: float, *, longer: bool
-) -> list[FloatArray]:
+    position: Vector, target: Vector, centre: Vector, radius: float, *, longer: bool
+) -> list[Vector]:
     """The vertices of the polygon that takes a leg from ``position`` to ``target`` round the
     circle (``centre``, ``radius``): the shorter way, or with ``longer`` the other."""
-    u = position - centre
-    w = target - centre
+    u = sub(position, centre)
+    w = sub(target, centre)
     du, dw = norm(u), norm(w)
-    e1 = u / du
-    leg = target - position
-    side = w - dot(w, e1) * e1  # the plane of the leg and the centre: e1, e2
+    e1 = _divide(u, du)
+    leg = sub(target, position)
+    side = sub(w, scale(dot(w, e1), e1))  # the plane of the leg and the centre: e1, e2
     if norm(side) < 1e-12:  # the target straight behind the centre
         side = _perpendicular(leg if norm(leg) > 0 else e1)
-    e2 = side / norm(side)
+    e2 = _divide(side, norm(side))
     # Angles in that plane: the agent at 0, the target at φ_t ∈ (0, π] (e2 points to the
     # target's side); the leg crosses the wedge between them, so the shorter detour goes round
     # there, the longer one the other way (e2 flipped, the target at 2π − φ_t).
@@ -141,7 +163,7 @@ def _around(
     if phi_t < 0:
         phi_t += 2 * math.pi
     if longer:
-        e2, phi_t = -e2, 2 * math.pi - phi_t
+        e2, phi_t = tuple([-x for x in e2]), 2 * math.pi - phi_t
     # Tangent angles: the agent lies on the circle's tangent at ``start``, the target on the
     # one at ``end``; tangents at angles a, b meet at angle (a+b)/2, radius R/cos((a−b)/2).
     # Tangents in between, at most _STEP apart, give the polygon; each of its edges, and both
@@ -152,15 +174,19 @@ def _around(
     step = (end - start) / count
     reach = radius / math.cos(step / 2.0)
     angles = [start + step * (i + 0.5) for i in range(count)]
-    return [centre + reach * (math.cos(a) * e1 + math.sin(a) * e2) for a in angles]
+    return [
+        add(centre, scale(reach, add(scale(math.cos(a), e1), scale(math.sin(a), e2))))
+        for a in angles
+    ]
 
 
-def _perpendicular(v: FloatArray) -> FloatArray:
-    """A unit vector perpendicular to ``v`` (left of it in the plane)."""
-    if v.shape[0] == 2:
-        out = np.array([-v[1], v[0]])
+def _perpendicular(v: Vector) -> Vector:
+    """A unit vector perpendicular to ``v`` (left of it in the plane); in 3-D v × the axis
+    along which v is smallest (numpy's cross product, term for term)."""
+    if len(v) == 2:
+        out: Vector = (-v[1], v[0])
     else:
-        axis = np.zeros(3)
-        axis[int(np.argmin(np.abs(v)))] = 1.0
-        out = np.cross(v, axis)
-    return np.asarray(out / norm(out), dtype=np.float64)
+        k = min(range(3), key=lambda i: abs(v[i]))
+        a = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+        out = (v[1] * a[2] - v[2] * a[1], v[2] * a[0] - v[0] * a[2], v[0] * a[1] - v[1] * a[0])
+    return _divide(out, norm(out))

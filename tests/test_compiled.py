@@ -25,6 +25,7 @@ COMPILED = [
     "shoal.agent.collision",
     "shoal.agent.consensus",
     "shoal.agent.controller",
+    "shoal.agent.leader",
     "shoal.world.kinematics",
 ]
 

@@ -18,8 +18,8 @@ from shoal.world.loader import scenario_from_dict
 RHO, CLEAR = 0.2, 0.25  # the controller's guard ρ and clearance ρ + ε
 
 
-def _legs(start: np.ndarray, route: tuple[np.ndarray, ...]) -> list[tuple[np.ndarray, ...]]:
-    points = [start, *route]
+def _legs(start: np.ndarray, route: tuple[tuple[float, ...], ...]) -> list[tuple[object, ...]]:
+    points = [tuple(start.tolist()), *route]
     return list(itertools.pairwise(points))
 
 
@@ -37,25 +37,25 @@ def test_a_detour_keeps_its_circle_on_every_leg_and_ends_at_the_waypoint(
     centre = rng.uniform(-1, 1, size=dim) * 0.8
     centre[0] = rng.uniform(3, 9)
     radius = float(rng.uniform(0.3, 1.5))
-    route = detour(start, (goal,), centre[None], np.array([radius]), guard=RHO, clearance=CLEAR)
+    waypoint = tuple(goal.tolist())
+    route = detour(start, (waypoint,), centre[None], np.array([radius]), guard=RHO, clearance=CLEAR)
     keep = radius + RHO + CLEAR
     if segment_distance(centre, start, goal) >= keep - CLEAR / 2:
-        assert route == (goal,)  # nothing in the way: no detour
+        assert route == (waypoint,)  # nothing in the way: no detour
         return
-    assert len(route) >= 2 and route[-1] is goal
+    assert len(route) >= 2 and route[-1] is waypoint
     for a, b in _legs(start, route):
         assert segment_distance(centre, a, b) >= keep - 1e-9
 
 
 def test_a_leg_clear_of_every_obstacle_is_left_alone() -> None:
-    start, goal = np.zeros(2), np.array([10.0, 0.0])
-    route = (goal,)
+    start, route = np.zeros(2), ((10.0, 0.0),)
     far = np.array([[5.0, 3.0]])
     assert detour(start, route, far, np.array([1.0]), guard=RHO, clearance=CLEAR) is route
 
 
 def test_a_blocked_short_side_sends_the_leader_round_the_other() -> None:
-    start, goal = np.zeros(2), np.array([12.0, 0.0])
+    start, goal = np.zeros(2), (12.0, 0.0)
     centres = np.array([[6.0, 0.3], [6.0, 2.2]])  # the second sits on the short way round
     radii = np.array([1.0, 0.5])
     route = detour(start, (goal,), centres, radii, guard=RHO, clearance=CLEAR)
@@ -66,7 +66,7 @@ def test_a_blocked_short_side_sends_the_leader_round_the_other() -> None:
 
 
 def test_two_obstacles_with_no_way_between_or_round_are_gone_round_together() -> None:
-    start, goal = np.zeros(2), np.array([12.0, 0.0])
+    start, goal = np.zeros(2), (12.0, 0.0)
     centres = np.array([[6.0, -0.6], [6.0, 0.9]])
     radii = np.array([0.8, 0.6])
     route = detour(start, (goal,), centres, radii, guard=RHO, clearance=CLEAR)
@@ -78,7 +78,7 @@ def test_two_obstacles_with_no_way_between_or_round_are_gone_round_together() ->
 
 def test_lead_visits_the_waypoints_in_order_at_the_paths_speed() -> None:
     position = np.zeros(2)
-    route = (np.array([1.0, 0.0]), np.array([1.0, 1.0]))
+    route = ((1.0, 0.0), (1.0, 1.0))
     visited, speeds = [], []
     for _ in range(400):
         v, left = lead(position, route, 2.0, 0.01)
@@ -86,8 +86,8 @@ def test_lead_visits_the_waypoints_in_order_at_the_paths_speed() -> None:
         if len(left) < len(route):
             visited.append(route[0])
         route = left
-        position = position + 0.01 * v
-    assert [p.tolist() for p in visited] == [[1.0, 0.0], [1.0, 1.0]]
+        position = position + 0.01 * np.asarray(v)
+    assert visited == [(1.0, 0.0), (1.0, 1.0)]
     assert max(speeds) <= 2.0 + 1e-12 and speeds[-1] == 0.0
     assert np.allclose(position, [1.0, 1.0], atol=1e-12)
 

@@ -57,14 +57,14 @@ def run(scenario: Scenario) -> Iterator[Tick]:
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
-        commanded = np.empty_like(positions)
+        commanded = []
         filtered = []
         for i, c in enumerate(controllers):
             heard = {j: states[j] for j in c.listens_to}
             memories[i], command = c.act(memories[i], sensings[i], heard)
-            commanded[i] = command.velocity
+            commanded.append(command.velocity)
             filtered.append(command.filtered)
-        velocities, _ = actuate(sensings, commanded, params, scenario.dt)
+        velocities, _ = actuate(sensings, np.array(commanded), params, scenario.dt)
         moved = integrate(positions, velocities, scenario.dt)
         ordered = tuple(states[i + 1] for i in range(n))
         yield Tick(k, positions, ordered, velocities, tuple(filtered), moved, crowd)
