@@ -2,7 +2,8 @@
 (docs/performance.md, "Compiled").
 
 Everything else about the package is in pyproject.toml. The modules in ``COMPILED`` run for every
-agent every tick: the controller, the safety filter and the small-vector arithmetic. mypyc
+agent every tick: the controller, the safety filter, the small-vector arithmetic, and the
+reference simulator's tick loop that calls them in a campaign. mypyc
 compiles them, and the messages they pass each other (bus/messages.py), from the same
 type-annotated Python into C extensions; the Python stays beside them in the package and is
 what runs wherever they are missing. Either gives the same bits:
@@ -30,7 +31,13 @@ from setuptools import Extension, setup
 
 ROOT = Path(__file__).resolve().parent
 # (folder in the repository, package) as pyproject.toml maps them.
-TREE = {"src/shoal": "shoal", "agent": "shoal/agent", "bus": "shoal/bus", "world": "shoal/world"}
+TREE = {
+    "src/shoal": "shoal",
+    "agent": "shoal/agent",
+    "bus": "shoal/bus",
+    "world": "shoal/world",
+    "tools": "shoal/tools",
+}
 COMPILED = [
     "shoal/bus/messages.py",
     "shoal/bus/geometry.py",
@@ -41,6 +48,7 @@ COMPILED = [
     "shoal/agent/controller.py",
     "shoal/agent/leader.py",
     "shoal/world/kinematics.py",
+    "shoal/tools/simulator.py",
 ]
 # The mypyc runtime shared by the compiled modules: an extension inside shoal, never top level.
 GROUP = "shoal.compiled"
@@ -51,7 +59,7 @@ BUILDS = {"bdist_wheel", "build", "build_ext", "install", "editable_wheel", "dev
 
 def _stage() -> Path:
     """A copy of the packages laid out as their module names (pyproject.toml maps folders to
-    packages, mypyc names modules by path); tools/ is not needed: nothing compiled imports it."""
+    packages, mypyc names modules by path)."""
     stage = ROOT / "build" / "mypyc-src"
     shutil.rmtree(stage, ignore_errors=True)
     for folder, package in TREE.items():

@@ -27,6 +27,7 @@ COMPILED = [
     "shoal.agent.controller",
     "shoal.agent.leader",
     "shoal.world.kinematics",
+    "shoal.tools.simulator",
 ]
 
 # Digests of built-ins (standing obstacles, contraction, people) and of campaign fields (inside,

@@ -2,15 +2,16 @@
 
 It calls exactly what the distributed run calls: the world's ``Field`` (moving obstacles),
 ``sense_all``, ``actuate`` and ``integrate`` and each agent's ``Controller.announce`` /
-``Controller.act``, in the same order
-and on the same float64 values, so a lockstep run over Zenoh must reproduce its trajectory bit
-for bit.
+``Controller.act``, in the same order and on the same float64 values, so a lockstep run over
+Zenoh must reproduce its trajectory bit for bit. setup.py compiles it with those modules: a
+campaign spends most of its time in this loop.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 
@@ -26,20 +27,38 @@ from shoal.world.trajectory import Trajectory
 Progress = Callable[[int], None]
 
 
-@dataclass(frozen=True)
+@dataclass(init=False, slots=True, eq=False)
 class Tick:
     """One tick of a run: positions (n, dim) at its start, the states announced, the
     velocities (n, dim) held during it (after the world's safety layer, which in lockstep
     changes nothing), where each agent's filter was active (n,), the positions it ends at, and
     the moving obstacles over it (their centres at its start and velocities held)."""
 
-    tick: int
-    positions: FloatArray
-    states: tuple[AgentState, ...]
-    velocities: FloatArray
-    filtered: tuple[bool, ...]
-    next_positions: FloatArray
-    movers: MoverState
+    tick: Final[int]
+    positions: Final[FloatArray]
+    states: Final[tuple[AgentState, ...]]
+    velocities: Final[FloatArray]
+    filtered: Final[tuple[bool, ...]]
+    next_positions: Final[FloatArray]
+    movers: Final[MoverState]
+
+    def __init__(
+        self,
+        tick: int,
+        positions: FloatArray,
+        states: tuple[AgentState, ...],
+        velocities: FloatArray,
+        filtered: tuple[bool, ...],
+        next_positions: FloatArray,
+        movers: MoverState,
+    ) -> None:
+        self.tick = tick
+        self.positions = positions
+        self.states = states
+        self.velocities = velocities
+        self.filtered = filtered
+        self.next_positions = next_positions
+        self.movers = movers
 
 
 def run(scenario: Scenario) -> Iterator[Tick]:

@@ -27,19 +27,20 @@ from shoal.world.loader import load_scenario
 Call = tuple[Vector, Sensing, int, dict[str, Any]]
 
 
-def _python_controller() -> ModuleType:
-    """shoal.agent.controller as Python: a compiled controller (setup.py) calls the filter
-    within C, where no patch reaches, so the calls are recorded through its source instead
-    (the same bits: tests/test_compiled.py)."""
-    source = Path(str(controller.__file__)).with_name("controller.py")
-    if Path(str(controller.__file__)) == source:
-        return controller
-    spec = importlib.util.spec_from_file_location("shoal.agent._controller_source", source)
+def _source(module: ModuleType) -> ModuleType:
+    """``module`` as Python: a compiled controller (setup.py) calls the filter within C, where
+    no patch reaches, and a compiled simulator calls the compiled controller, so the calls are
+    recorded through their sources instead (the same bits: tests/test_compiled.py)."""
+    source = Path(str(module.__file__)).with_name(module.__name__.rpartition(".")[2] + ".py")
+    if Path(str(module.__file__)) == source:
+        return module
+    name = module.__name__ + "_source"
+    spec = importlib.util.spec_from_file_location(name, source)
     assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+    loaded = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = loaded  # its dataclasses look their module up there
+    spec.loader.exec_module(loaded)
+    return loaded
 
 
 def _record(seed: int) -> tuple[list[Call], float, int]:
@@ -53,12 +54,12 @@ def _record(seed: int) -> tuple[list[Call], float, int]:
         calls.append((nominal, sensing, agent_id, kw))
         return real(nominal, sensing, agent_id, **kw)
 
-    source = _python_controller()
+    laws, loop = _source(controller), _source(simulator)
     with (
-        mock.patch.object(source, "safe_velocity", recording),
-        mock.patch.object(simulator, "Controller", source.Controller),
+        mock.patch.object(laws, "safe_velocity", recording),
+        mock.patch.object(loop, "Controller", laws.Controller),
     ):
-        simulate(field)
+        loop.simulate(field)
     start = time.process_time()
     simulate(field)
     cpu = time.process_time() - start
