@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from shoal.bus.geometry import PointsLike, Vector, VectorLike, dot, norm, scale, sub
+from shoal.bus.messages import picklable
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
 
@@ -94,6 +95,9 @@ class Evasion:
         self.centre = centre
         self.radius = radius
         self.offset = offset
+
+
+picklable(Evasion)
 
 
 def _ratchet(

@@ -25,7 +25,7 @@ from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import detour, lead
 from shoal.bus.geometry import Vector, VectorLike, segment_distance, shaped_vector, sub
-from shoal.bus.messages import AgentState, Command, Sensing
+from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
 from shoal.bus.types import AgentConfig, Waypoints, config_problem
@@ -70,6 +70,8 @@ class Memory:
         self.route = route
         self.calm = calm
 
+
+picklable(Memory)
 
 # With the safety filter u^o grows to at most this many times r_j + ρ + ε (agent/collision.py):
 # twice what a ray through the centre needs.

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from shoal.bus.geometry import right_of, vdot
-from shoal.bus.messages import Mover, Sensing
+from shoal.bus.messages import Mover, Sensing, picklable
 from shoal.bus.types import Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
@@ -88,6 +88,9 @@ class Filtered:
         self.active = active
         self.fallback = fallback
         self.cornered = cornered
+
+
+picklable(Row, Filtered)
 
 
 def _unit_away(own: Vector, other: Vector, axis_sign: float) -> tuple[Vector, float]:

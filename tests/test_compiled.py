@@ -92,7 +92,7 @@ def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
 
 
 RECORDS = """
-import dataclasses, json
+import copy, dataclasses, json, pickle
 from shoal.agent.controller import Controller
 from shoal.bus.messages import AgentState
 from shoal.world.loader import load_scenario
@@ -103,6 +103,8 @@ out = {
     "equal": a == AgentState(1, 2, (0.5, -1.0), False, 1.0, 2.0, 0.0), "differ": a != b,
     "hash": hash(a) == hash(AgentState(1, 2, (0.5, -1.0), False, 1.0, 2.0, 0.0)),
     "repr": repr(b), "fields": [f.name for f in dataclasses.fields(memory)],
+    "pickled": pickle.loads(pickle.dumps(a)) == a and pickle.loads(pickle.dumps(memory)) == memory,
+    "copied": copy.deepcopy(b) == b,
 }
 try:
     a.tick = 5  # type: ignore[misc]
@@ -116,11 +118,12 @@ print(json.dumps(out))
 
 def test_the_messages_keep_their_dataclass_behaviour_in_both_builds(installed: Path) -> None:
     """The per-tick records (bus/messages.py, the controller's Memory) have their own
-    ``__init__`` for speed: equality, hashing, repr, fields and replace are the dataclass's in
-    either build, and compiled, a field cannot be assigned (``Final``)."""
+    ``__init__`` for speed: equality, hashing, repr, fields, replace, pickling and copying are
+    the dataclass's in either build, and compiled, a field cannot be assigned (``Final``)."""
     compiled, pure = (json.loads(_run(RECORDS, site)) for site in (installed, None))
     for out in (compiled, pure):
         assert out["equal"] and out["differ"] and out["hash"]
+        assert out["pickled"] and out["copied"]
         assert out["repr"] == (
             "AgentState(agent_id=1, tick=3, position=(0.5, -1.0), omega=False, bid=1.0, "
             "sigma=2.0, theta=0.0)"

@@ -17,7 +17,7 @@ import numpy as np
 
 from shoal.agent.controller import Controller
 from shoal.bus.geometry import FloatArray
-from shoal.bus.messages import AgentState
+from shoal.bus.messages import AgentState, picklable
 from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.movers import MoverState
@@ -59,6 +59,9 @@ class Tick:
         self.filtered = filtered
         self.next_positions = next_positions
         self.movers = movers
+
+
+picklable(Tick)
 
 
 def run(scenario: Scenario) -> Iterator[Tick]:
