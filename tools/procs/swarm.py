@@ -41,10 +41,10 @@ _libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
 SUPERVISOR_ENV = "SHOAL_SUPERVISOR_PID"  # set for a child by the Swarm that starts it
 
 
-def die_with(parent: int) -> None:
-    """In a child: ask the kernel for SIGTERM when the parent thread dies, and leave at once
+def die_with(parent: int, sig: signal.Signals = signal.SIGTERM) -> None:
+    """In a child: ask the kernel for ``sig`` when the parent thread dies, and leave at once
     if the parent is no longer ``parent`` (it died before the request took effect)."""
-    _libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    _libc.prctl(_PR_SET_PDEATHSIG, sig)
     if os.getppid() != parent:
         os._exit(1)
 

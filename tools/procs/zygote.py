@@ -7,8 +7,9 @@ Zenoh session, and then forks one process per agent on request. Each forked agen
 own OS process with its own Zenoh session; it runs exactly the ``shoal agent`` command line.
 
 The supervision guarantees are those of tools/procs/swarm.py, one level down: the zygote dies with
-the supervisor (PR_SET_PDEATHSIG) and every forked child with the zygote, so no SIGKILL anywhere
-leaves an orphan; each child is in its own session and writes stderr to its own file.
+the supervisor (PR_SET_PDEATHSIG) and every forked child with the zygote (SIGKILL: see _child), so
+no SIGKILL anywhere leaves an orphan; each child is in its own session and writes stderr to its
+own file.
 
 The supervisor's side is tools/procs/forks.py; arguments on the zygote's own command line are only
 labels (the run id, for ``pgrep``) and are ignored. Protocol, one line each way (stdin / stdout
@@ -58,7 +59,12 @@ def _child(request: dict[str, Any], zygote: int, inherited: tuple[int, ...], rea
         for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGINT):
             signal.signal(sig, signal.SIG_DFL)
         os.setsid()
-        die_with(zygote)
+        # SIGKILL, not SIGTERM: with the fork server gone nobody can stop or reap this agent,
+        # and a process whose main thread is stuck in native code never runs the SIGTERM
+        # handler that arms its watchdog (bus/runtime.py): seen once in CI, a forked process
+        # 30 s in futex_do_wait after the server was killed. The server ends only after the
+        # supervisor has stopped its agents, or when something has gone wrong.
+        die_with(zygote, signal.SIGKILL)
         null = os.open(os.devnull, os.O_RDWR)
         log = os.open(request["log"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         os.dup2(null, 0)
