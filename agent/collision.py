@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Final
 
-from shoal.bus.geometry import PointsLike, Vector, VectorLike, dot, norm, scale, sub
+from shoal.bus.geometry import PointsLike, Vector, VectorLike, dot, norm, plain, scale, sub
 from shoal.bus.messages import picklable
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
@@ -172,11 +172,11 @@ def collision_course(
     most ``ratchet_cap`` × (r_j + ρ + ε).
     """
     return _course(
-        _plain(position),
-        _plain(heading),
+        plain(position),
+        plain(heading),
         obstacle_ids,
-        [_plain(c) for c in centres],
-        _plain(radii),
+        [plain(c) for c in centres],
+        plain(radii),
         held,
         trigger_radius=trigger_radius,
         sensing_radius=sensing_radius,
@@ -226,10 +226,3 @@ def _course(
         position, heading, centres[k], radii[k], safety_margin=safety_margin, epsilon=epsilon
     )
     return Evasion(obstacle_id=obstacle_ids[k], centre=centres[k], radius=radii[k], offset=offset)
-
-
-def _plain(v: VectorLike) -> Vector:
-    """``v`` as a tuple of Python floats (a tuple of floats comes back as it is)."""
-    if type(v) is tuple:
-        return v
-    return tuple(v.tolist()) if hasattr(v, "tolist") else tuple(float(x) for x in v)

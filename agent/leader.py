@@ -24,9 +24,10 @@ from shoal.bus.geometry import (
     Vector,
     VectorLike,
     add,
+    divide,
     dot,
-    floats,
     norm,
+    plain,
     scale,
     segment_distance,
     sub,
@@ -45,7 +46,7 @@ def lead(
 
     Waypoints already reached are dropped first; with none left the leader stands still.
     """
-    here = _vector(position)
+    here = plain(position)
     while route and norm(sub(route[0], here)) <= _REACHED:
         route = route[1:]
     if not route:
@@ -74,8 +75,8 @@ def detour(
     obstacles."""
     if not route or len(centres) == 0:
         return route
-    here = _vector(position)
-    circles = [(_vector(c), float(r)) for c, r in zip(centres, radii)]
+    here = plain(position)
+    circles = [(plain(c), float(r)) for c, r in zip(centres, radii)]
     target = route[0]
     hit = _first_in_way(here, target, circles, guard, clearance)
     for _ in range(len(circles)):
@@ -93,10 +94,6 @@ def detour(
                 return (*polygon, *route)
         hit = _enclosing([hit, *(c for c in circles if _near_polygon(c, polygon, hit))])
     return route
-
-
-def _vector(v: VectorLike) -> Vector:
-    return tuple([float(x) for x in floats(v)])
 
 
 def _first_in_way(
@@ -132,14 +129,9 @@ def _enclosing(circles: list[Circle]) -> Circle:
     total = circles[0][0]
     for c, _ in circles[1:]:
         total = add(total, c)
-    centre = _divide(total, float(len(circles)))
+    centre = divide(total, float(len(circles)))
     radius = max([norm(sub(c, centre)) + r for c, r in circles])
     return centre, radius
-
-
-def _divide(v: Vector, d: float) -> Vector:
-    """v / d elementwise (not v · (1/d), which rounds differently)."""
-    return tuple([x / d for x in v])
 
 
 def _around(
@@ -150,12 +142,12 @@ def _around(
     u = sub(position, centre)
     w = sub(target, centre)
     du, dw = norm(u), norm(w)
-    e1 = _divide(u, du)
+    e1 = divide(u, du)
     leg = sub(target, position)
     side = sub(w, scale(dot(w, e1), e1))  # the plane of the leg and the centre: e1, e2
     if norm(side) < 1e-12:  # the target straight behind the centre
         side = _perpendicular(leg if norm(leg) > 0 else e1)
-    e2 = _divide(side, norm(side))
+    e2 = divide(side, norm(side))
     # Angles in that plane: the agent at 0, the target at φ_t ∈ (0, π] (e2 points to the
     # target's side); the leg crosses the wedge between them, so the shorter detour goes round
     # there, the longer one the other way (e2 flipped, the target at 2π − φ_t).
@@ -189,4 +181,4 @@ def _perpendicular(v: Vector) -> Vector:
         k = min(range(3), key=lambda i: abs(v[i]))
         a = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
         out = (v[1] * a[2] - v[2] * a[1], v[2] * a[0] - v[0] * a[2], v[0] * a[1] - v[1] * a[0])
-    return _divide(out, norm(out))
+    return divide(out, norm(out))

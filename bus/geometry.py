@@ -68,6 +68,19 @@ def scale(k: float, v: VectorLike) -> Vector:
     return tuple([k * x for x in v])
 
 
+def divide(v: VectorLike, d: float) -> Vector:
+    """v / d elementwise, as a tuple: numpy's ``v / d`` (not v · (1/d), which rounds
+    differently)."""
+    return tuple([x / d for x in v])
+
+
+def plain(v: VectorLike) -> Vector:
+    """``v`` as a tuple of Python floats (a tuple of floats comes back as it is)."""
+    if type(v) is tuple:
+        return v
+    return tuple(v.tolist()) if hasattr(v, "tolist") else tuple(float(x) for x in v)
+
+
 def vdot(a: Sequence[float], b: Sequence[float]) -> float:
     """a · b of two plain-float vectors (tuples, lists), summed from 0.0 left to right: the
     small-vector arithmetic of the safety filter and the crowd model, the same bits anywhere."""
