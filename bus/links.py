@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import zenoh
@@ -32,6 +33,18 @@ def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh
     )
 
 
+def direct(callback: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback[zenoh.Sample]:
+    """``callback`` run on the Zenoh thread that received the sample (it takes the GIL there).
+
+    Zenoh's default hands every sample to a Python thread of its own per subscriber first: one
+    thread switch more per message, a thread started per declaration, and a thread that is not
+    a daemon and only ends when its subscriber is undeclared, so an interpreter that exits
+    without undeclaring waits for it forever (tests/test_links.py). Zenoh calls the option
+    unstable; it exists since 0.11. Only for callbacks that return at once: ours enqueue, and
+    the main loop does the work."""
+    return zenoh.handlers.Callback(callback, indirect=False)
+
+
 def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
     def arrived(sample: zenoh.Sample) -> None:
         inbox.put(
@@ -40,7 +53,7 @@ def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
             )
         )
 
-    return session.declare_subscriber(key, arrived)
+    return session.declare_subscriber(key, direct(arrived))
 
 
 def collect(session: zenoh.Session, key: str, sink: deque[tuple[str, bytes, int]]) -> Any:
@@ -51,7 +64,7 @@ def collect(session: zenoh.Session, key: str, sink: deque[tuple[str, bytes, int]
     def arrived(sample: zenoh.Sample) -> None:
         sink.append((str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
 
-    return session.declare_subscriber(key, arrived)
+    return session.declare_subscriber(key, direct(arrived))
 
 
 def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
@@ -62,7 +75,7 @@ def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
         kind = ArrivalKind.UP if sample.kind == zenoh.SampleKind.PUT else ArrivalKind.DOWN
         inbox.put(Arrival(kind, str(sample.key_expr)))
 
-    return session.liveliness().declare_subscriber(key, changed, history=True)
+    return session.liveliness().declare_subscriber(key, direct(changed), history=True)
 
 
 def still_present(session: zenoh.Session, key: str, timeout: float = 1.0) -> bool:

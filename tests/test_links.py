@@ -1,0 +1,51 @@
+"""bus/links.py's callbacks run on Zenoh's own thread: no Python thread per subscriber, and so
+nothing left for the interpreter to wait for at exit. A real router and a real process."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+_FORGETS_TO_UNDECLARE = """
+import sys, threading
+from collections import deque
+import zenoh
+from shoal.bus.keys import Keys
+from shoal.bus.links import collect, publisher, subscribe, watch_presence
+from shoal.bus.runtime import Inbox
+from shoal.bus.zconfig import zenoh_config
+
+keys = Keys("links-test")
+session = zenoh.open(zenoh_config(mode="client", connect=[sys.argv[1]]))
+before = threading.active_count()
+inbox, sink = Inbox(), deque()
+held = [
+    subscribe(session, keys.sensing(1), inbox),
+    watch_presence(session, keys.alive_agent(1), inbox),
+    collect(session, keys.everything, sink),
+]
+token = session.liveliness().declare_token(keys.alive_agent(1))
+assert inbox.get(timeout=30).kind == "up"
+publisher(session, keys.sensing(1)).put(b"hello")
+arrival = inbox.get(timeout=30)
+assert arrival is not None and arrival.payload == b"hello", arrival
+print("threads started", threading.active_count() - before, "collected", len(sink), flush=True)
+# and exit without undeclaring anything or closing the session
+"""
+
+
+def test_callbacks_start_no_thread_and_a_process_that_never_undeclares_still_exits(
+    router: str,
+) -> None:
+    # With Zenoh's default (a Python thread per callback, not a daemon) the interpreter waits at
+    # exit for threads that wait for their subscriber's undeclaration: the process never ends.
+    proc = subprocess.run(
+        [sys.executable, "-c", _FORGETS_TO_UNDECLARE, router],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    words = proc.stdout.split()
+    assert words[:3] == ["threads", "started", "0"], proc.stdout
+    assert int(words[4]) >= 1  # the recorder's callback saw the sample too
