@@ -16,11 +16,13 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import zenoh
 
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox
+
+T = TypeVar("T")
 
 
 def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh.Publisher:
@@ -33,8 +35,9 @@ def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh
     )
 
 
-def direct(callback: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback[zenoh.Sample]:
-    """``callback`` run on the Zenoh thread that received the sample (it takes the GIL there).
+def direct(callback: Callable[[T], None]) -> zenoh.handlers.Callback[T]:
+    """``callback`` run on the Zenoh thread that received the sample or query (it takes the GIL
+    there).
 
     Zenoh's default hands every sample to a Python thread of its own per subscriber first: one
     thread switch more per message, a thread started per declaration, and a thread that is not

@@ -1,5 +1,6 @@
-"""bus/links.py's callbacks run on Zenoh's own thread: no Python thread per subscriber, and so
-nothing left for the interpreter to wait for at exit. A real router and a real process."""
+"""bus/links.py's callbacks (and bus/seam.py's queryables) run on Zenoh's own thread: no Python
+thread per declaration, and so nothing left for the interpreter to wait for at exit. A real
+router and a real process."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import zenoh
 from shoal.bus.keys import Keys
 from shoal.bus.links import collect, publisher, subscribe, watch_presence
 from shoal.bus.runtime import Inbox
+from shoal.bus.seam import Answer, ZenohBus
 from shoal.bus.zconfig import zenoh_config
 
 keys = Keys("links-test")
@@ -23,12 +25,15 @@ held = [
     subscribe(session, keys.sensing(1), inbox),
     watch_presence(session, keys.alive_agent(1), inbox),
     collect(session, keys.everything, sink),
+    ZenohBus(session).serve(keys.report(1), lambda key: Answer(key, b"figures")),
 ]
 token = session.liveliness().declare_token(keys.alive_agent(1))
 assert inbox.get(timeout=30).kind == "up"
 publisher(session, keys.sensing(1)).put(b"hello")
 arrival = inbox.get(timeout=30)
 assert arrival is not None and arrival.payload == b"hello", arrival
+answers = ZenohBus(session).ask([keys.report(1)], timeout=30)
+assert [a.payload for a in answers] == [b"figures"], answers
 print("threads started", threading.active_count() - before, "collected", len(sink), flush=True)
 # and exit without undeclaring anything or closing the session
 """
