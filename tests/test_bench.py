@@ -40,6 +40,32 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
     assert figures["safety_filter"]["filter_us_per_agent_tick"] > 0
 
 
+@pytest.mark.integration
+def test_repeated_pairs_report_medians_and_every_pair() -> None:
+    """Pairs alternate their order; the row's figures are the pairs' medians."""
+    result = CliRunner().invoke(main, ["bench", "--sizes", "2", "--ticks", "30", "--repeats", "3"])
+    assert result.exit_code == 0, result.output
+    (row,) = json.loads(result.stdout)["lockstep"]
+    pairs = row["pairs"]
+    assert len(pairs) == 3
+    ratios = sorted(p["floor_over_lockstep"] for p in pairs)
+    assert row["floor_over_lockstep"] == pytest.approx(ratios[1], abs=1e-3)
+    ours = sorted(p["lockstep_ticks_per_s"] for p in pairs)
+    assert row["lockstep_ticks_per_s"] == ours[1]
+    for p in pairs:
+        assert p["floor_over_lockstep"] == pytest.approx(
+            p["floor_ticks_per_s"] / p["lockstep_ticks_per_s"], rel=1e-2
+        )
+    said = result.stderr
+    assert said.index("floor (pair 1 of 3)") < said.index("lockstep run (pair 1 of 3)")
+    assert said.index("lockstep run (pair 2 of 3)") < said.index("floor (pair 2 of 3)")
+
+
+def test_repeats_must_be_at_least_one() -> None:
+    result = CliRunner().invoke(main, ["bench", "--repeats", "0"])
+    assert result.exit_code == 2 and "Invalid value" in result.output
+
+
 def test_the_filter_benchmark_times_real_calls_idle_and_active() -> None:
     from shoal.tools.bench.filter import bench_filter
 

@@ -103,15 +103,85 @@ def measure_floor(
     }
 
 
+@dataclass(frozen=True)
+class Pair:
+    """One floor measurement and one lockstep run of the same size, back to back."""
+
+    floor: dict[str, Any]
+    run: RunResult
+    steal_run: float
+
+    @property
+    def ratio(self) -> float:
+        return float(self.floor["ticks_per_s"]) / float(self.run.summary["ticks_per_s"])
+
+
+def _pair(
+    n: int, ticks: int, work: Path, *, floor_first: bool, tag: str, say: Callable[[str], None]
+) -> Pair:
+    def floor() -> dict[str, Any]:
+        say(f"{n} agents: floor{tag}")
+        return measure_floor(n, ticks)
+
+    def run() -> tuple[RunResult, float]:
+        say(f"{n} agents: lockstep run{tag}")
+        steal = Steal.start()
+        result = measure_run(n, ticks, work)
+        return result, steal.fraction()
+
+    if floor_first:
+        f = floor()
+        real, steal = run()
+    else:
+        real, steal = run()
+        f = floor()
+    return Pair(f, real, steal)
+
+
+def _row(n: int, ticks: int, pairs: list[Pair]) -> dict[str, Any]:
+    """A size's figures: with one pair, that pair's; with more, the medians, the pair whose
+    ratio is the median for the CPU per tick, and every pair's ratio."""
+    median = pairs[sorted(range(len(pairs)), key=lambda i: pairs[i].ratio)[(len(pairs) - 1) // 2]]
+    floor_tps = statistics.median(p.floor["ticks_per_s"] for p in pairs)
+    ours = statistics.median(p.run.summary["ticks_per_s"] for p in pairs)
+    row: dict[str, Any] = {
+        "agents": n,
+        "ticks": ticks,
+        "floor_ticks_per_s": floor_tps,
+        "lockstep_ticks_per_s": ours,
+        "floor_over_lockstep": round(statistics.median(p.ratio for p in pairs), 3),
+        "latency_p50_ms": statistics.median(p.run.summary["latency_p50_ms"] for p in pairs),
+        "latency_p99_ms": statistics.median(p.run.summary["latency_p99_ms"] for p in pairs),
+        "steal_floor": max(p.floor["steal"] for p in pairs),
+        "steal_lockstep": max(p.steal_run for p in pairs),
+        "cpu_us_per_tick": {
+            "floor": median.floor["cpu_us_per_tick"],
+            "lockstep": median.run.cpu_us_per_tick,
+        },
+    }
+    if len(pairs) > 1:
+        row["pairs"] = [
+            {
+                "floor_ticks_per_s": p.floor["ticks_per_s"],
+                "lockstep_ticks_per_s": p.run.summary["ticks_per_s"],
+                "floor_over_lockstep": round(p.ratio, 3),
+                "steal": max(p.floor["steal"], p.steal_run),
+            }
+            for p in pairs
+        ]
+    return row
+
+
 def measure_run(
     n: int, ticks: int, workdir: Path, *, clock: str = "lockstep", dt: float = 0.01
 ) -> RunResult:
+    run_id = uuid.uuid4().hex[:8]
     path = workdir / f"bench-{n}.yaml"
     path.write_text(yaml.safe_dump(bench_scenario(n, ticks, dt)))
     plan = RunPlan(
         scenario=load_scenario(path),
-        out=workdir / f"bench-{n}-{clock}.mcap",
-        run_id=f"bench-{uuid.uuid4().hex[:8]}",
+        out=workdir / f"bench-{n}-{clock}-{run_id}.mcap",
+        run_id=f"bench-{run_id}",
         clock=Clock(clock),
         measure_cpu=True,
     )
@@ -119,40 +189,31 @@ def measure_run(
 
 
 def bench(
-    sizes: Sequence[int], ticks: int, *, say: Callable[[str], None] = lambda _s: None
+    sizes: Sequence[int],
+    ticks: int,
+    *,
+    repeats: int = 1,
+    say: Callable[[str], None] = lambda _s: None,
 ) -> dict[str, Any]:
-    """Every figure of the benchmark, as one JSON-able dict."""
+    """Every figure of the benchmark, as one JSON-able dict.
+
+    ``repeats`` > 1 measures each size as that many floor/run pairs, the order alternating
+    (floor first, then run first, ...), and reports the median of each figure and every pair's
+    ratio: on a shared VM one pair's ratio moves by a third from one minute to the next."""
     rows, rss, pss, startup = [], [], [], {}
     with tempfile.TemporaryDirectory(prefix="shoal-bench-") as tmp:
         work = Path(tmp)
         for n in sizes:
             t = ticks if n <= 20 else max(ticks // 2, 50)
-            say(f"{n} agents: floor")
-            floor = measure_floor(n, t)
-            say(f"{n} agents: lockstep run")
-            steal = Steal.start()
-            real = measure_run(n, t, work)
-            ours = real.summary["ticks_per_s"]
-            rows.append(
-                {
-                    "agents": n,
-                    "ticks": t,
-                    "floor_ticks_per_s": floor["ticks_per_s"],
-                    "lockstep_ticks_per_s": ours,
-                    "floor_over_lockstep": round(floor["ticks_per_s"] / ours, 3),
-                    "latency_p50_ms": real.summary["latency_p50_ms"],
-                    "latency_p99_ms": real.summary["latency_p99_ms"],
-                    "steal_floor": floor["steal"],
-                    "steal_lockstep": steal.fraction(),
-                    "cpu_us_per_tick": {
-                        "floor": floor["cpu_us_per_tick"],
-                        "lockstep": real.cpu_us_per_tick,
-                    },
-                }
-            )
-            startup[str(n)] = real.startup_s
-            rss += real.agent_peak_rss_mb
-            pss += real.agent_pss_mb
+            pairs = []
+            for r in range(repeats):
+                tag = f" (pair {r + 1} of {repeats})" if repeats > 1 else ""
+                pair = _pair(n, t, work, floor_first=r % 2 == 0, tag=tag, say=say)
+                pairs.append(pair)
+                rss += pair.run.agent_peak_rss_mb
+                pss += pair.run.agent_pss_mb
+            rows.append(_row(n, t, pairs))
+            startup[str(n)] = statistics.median(p.run.startup_s for p in pairs)
         say("5 agents: realtime run")
         rt = measure_run(5, ticks, work, clock="realtime")
     return {

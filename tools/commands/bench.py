@@ -30,7 +30,13 @@ from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 @click.option("--scenario", default="sinusoid", help="--drops: the scenario to run.")
 @click.option("--speed", default=1.0, help="--drops: simulated seconds per wall-clock second.")
 @click.option("--settle", default=10.0, help="--drops: seconds excluded as the transient.")
-@click.option("--repeats", default=1, help="--drops: sweeps over the rates.")
+@click.option(
+    "--repeats",
+    type=click.IntRange(min=1),
+    default=1,
+    help="Lockstep: floor/run pairs per size, in alternating order, reported as medians with "
+    "every pair's ratio; --drops: sweeps over the rates.",
+)
 @click.option(
     "--filter",
     "filter_only",
@@ -124,7 +130,7 @@ def bench(
     if not numbers or min(numbers) < 2:
         raise click.BadParameter("every size needs a leader and a follower (≥ 2)")
     try:
-        result = run_bench(numbers, ticks, say=_say)
+        result = run_bench(numbers, ticks, repeats=repeats, say=_say)
     except ChildFailed as exc:
         raise click.ClickException(str(exc)) from None
     _say("the safety filter, per agent-tick")
