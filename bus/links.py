@@ -13,6 +13,7 @@ undeclares an entity when its Python object is collected).
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -36,16 +37,32 @@ def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh
 
 
 def direct(callback: Callable[[T], None]) -> zenoh.handlers.Callback[T]:
-    """``callback`` run on the Zenoh thread that received the sample or query (it takes the GIL
-    there).
+    """``callback`` run on the Zenoh thread that received the liveliness change or query (it
+    takes the GIL there), for the rare events: no Python thread per declaration.
 
-    Zenoh's default hands every sample to a Python thread of its own per subscriber first: one
-    thread switch more per message, a thread started per declaration, and a thread that is not
-    a daemon and only ends when its subscriber is undeclared, so an interpreter that exits
-    without undeclaring waits for it forever (tests/test_links.py). Zenoh calls the option
-    unstable; it exists since 0.11. Only for callbacks that return at once: ours enqueue, and
-    the main loop does the work."""
+    Zenoh's default runs a Python callback on a Python thread of its own per declaration, not a
+    daemon, that only ends when its entity is undeclared: an interpreter that exits without
+    undeclaring waits for it forever (tests/test_links.py). Zenoh calls ``indirect=False``
+    unstable; it exists since 0.11. Only for callbacks that return at once."""
     return zenoh.handlers.Callback(callback, indirect=False)
+
+
+def _pumped(subscriber: Any, key: str, deliver: Callable[[zenoh.Sample], None]) -> Any:
+    """A daemon thread that hands each sample of ``subscriber`` (declared with a channel) to
+    ``deliver`` until the subscriber is undeclared.
+
+    Samples are the per-tick traffic, so they are not taken on Zenoh's own thread
+    (:func:`direct`): a world or logger busy in Python held that thread waiting for the GIL,
+    and the floor pattern itself took 40–70 % more CPU per tick in both (docs/performance.md).
+    This is what Zenoh's default callback does, on a thread that does not hold the interpreter
+    open."""
+
+    def pump() -> None:
+        for sample in subscriber:
+            deliver(sample)
+
+    threading.Thread(target=pump, name=f"zenoh {key}", daemon=True).start()
+    return subscriber
 
 
 def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
@@ -56,7 +73,7 @@ def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
             )
         )
 
-    return session.declare_subscriber(key, direct(arrived))
+    return _pumped(session.declare_subscriber(key, zenoh.handlers.DefaultHandler()), key, arrived)
 
 
 def collect(session: zenoh.Session, key: str, sink: deque[tuple[str, bytes, int]]) -> Any:
@@ -67,7 +84,7 @@ def collect(session: zenoh.Session, key: str, sink: deque[tuple[str, bytes, int]
     def arrived(sample: zenoh.Sample) -> None:
         sink.append((str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
 
-    return session.declare_subscriber(key, direct(arrived))
+    return _pumped(session.declare_subscriber(key, zenoh.handlers.DefaultHandler()), key, arrived)
 
 
 def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:

@@ -1,5 +1,5 @@
-"""bus/links.py's callbacks (and bus/seam.py's queryables) run on Zenoh's own thread: no Python
-thread per declaration, and so nothing left for the interpreter to wait for at exit. A real
+"""bus/links.py and bus/seam.py leave the interpreter nothing to wait for at exit: samples are
+pumped by daemon threads, liveliness changes and queries answered on Zenoh's own thread. A real
 router and a real process."""
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from shoal.bus.zconfig import zenoh_config
 
 keys = Keys("links-test")
 session = zenoh.open(zenoh_config(mode="client", connect=[sys.argv[1]]))
-before = threading.active_count()
+def held_open():
+    return sum(1 for t in threading.enumerate() if not t.daemon)
+before = held_open()
 inbox, sink = Inbox(), deque()
 held = [
     subscribe(session, keys.sensing(1), inbox),
@@ -34,16 +36,16 @@ arrival = inbox.get(timeout=30)
 assert arrival is not None and arrival.payload == b"hello", arrival
 answers = ZenohBus(session).ask([keys.report(1)], timeout=30)
 assert [a.payload for a in answers] == [b"figures"], answers
-print("threads started", threading.active_count() - before, "collected", len(sink), flush=True)
+print("threads started", held_open() - before, "collected", len(sink), flush=True)
 # and exit without undeclaring anything or closing the session
 """
 
 
-def test_callbacks_start_no_thread_and_a_process_that_never_undeclares_still_exits(
+def test_no_declaration_holds_the_interpreter_open_when_a_process_never_undeclares(
     router: str,
 ) -> None:
     # With Zenoh's default (a Python thread per callback, not a daemon) the interpreter waits at
-    # exit for threads that wait for their subscriber's undeclaration: the process never ends.
+    # exit for threads that wait for their entity's undeclaration: the process never ends.
     proc = subprocess.run(
         [sys.executable, "-c", _FORGETS_TO_UNDECLARE, router],
         capture_output=True,
