@@ -13,17 +13,13 @@ undeclares an entity when its Python object is collected).
 
 from __future__ import annotations
 
-import threading
 import time
 from collections import deque
-from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any
 
 import zenoh
 
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox
-
-T = TypeVar("T")
 
 
 def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh.Publisher:
@@ -36,35 +32,6 @@ def publisher(session: zenoh.Session, key: str, *, lossy: bool = False) -> zenoh
     )
 
 
-def direct(callback: Callable[[T], None]) -> zenoh.handlers.Callback[T]:
-    """``callback`` run on the Zenoh thread that received the liveliness change or query (it
-    takes the GIL there), for the rare events: no Python thread per declaration.
-
-    Zenoh's default runs a Python callback on a Python thread of its own per declaration, not a
-    daemon, that only ends when its entity is undeclared: an interpreter that exits without
-    undeclaring waits for it forever (tests/test_links.py). Zenoh calls ``indirect=False``
-    unstable; it exists since 0.11. Only for callbacks that return at once."""
-    return zenoh.handlers.Callback(callback, indirect=False)
-
-
-def _pumped(subscriber: Any, key: str, deliver: Callable[[zenoh.Sample], None]) -> Any:
-    """A daemon thread that hands each sample of ``subscriber`` (declared with a channel) to
-    ``deliver`` until the subscriber is undeclared.
-
-    Samples are the per-tick traffic, so they are not taken on Zenoh's own thread
-    (:func:`direct`): a world or logger busy in Python held that thread waiting for the GIL,
-    and the floor pattern itself took 40–70 % more CPU per tick in both (docs/performance.md).
-    This is what Zenoh's default callback does, on a thread that does not hold the interpreter
-    open."""
-
-    def pump() -> None:
-        for sample in subscriber:
-            deliver(sample)
-
-    threading.Thread(target=pump, name=f"zenoh {key}", daemon=True).start()
-    return subscriber
-
-
 def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
     def arrived(sample: zenoh.Sample) -> None:
         inbox.put(
@@ -73,7 +40,7 @@ def subscribe(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
             )
         )
 
-    return _pumped(session.declare_subscriber(key, zenoh.handlers.DefaultHandler()), key, arrived)
+    return session.declare_subscriber(key, arrived)
 
 
 def collect(session: zenoh.Session, key: str, sink: deque[tuple[str, bytes, int]]) -> Any:
@@ -84,7 +51,7 @@ def collect(session: zenoh.Session, key: str, sink: deque[tuple[str, bytes, int]
     def arrived(sample: zenoh.Sample) -> None:
         sink.append((str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
 
-    return _pumped(session.declare_subscriber(key, zenoh.handlers.DefaultHandler()), key, arrived)
+    return session.declare_subscriber(key, arrived)
 
 
 def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
@@ -95,7 +62,7 @@ def watch_presence(session: zenoh.Session, key: str, inbox: Inbox) -> Any:
         kind = ArrivalKind.UP if sample.kind == zenoh.SampleKind.PUT else ArrivalKind.DOWN
         inbox.put(Arrival(kind, str(sample.key_expr)))
 
-    return session.liveliness().declare_subscriber(key, direct(changed), history=True)
+    return session.liveliness().declare_subscriber(key, changed, history=True)
 
 
 def still_present(session: zenoh.Session, key: str, timeout: float = 1.0) -> bool:

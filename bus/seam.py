@@ -16,7 +16,7 @@ from typing import Protocol, Self
 
 import zenoh
 
-from shoal.bus.links import direct, publisher, still_present, subscribe, watch_presence
+from shoal.bus.links import publisher, still_present, subscribe, watch_presence
 from shoal.bus.runtime import Inbox
 
 
@@ -66,8 +66,7 @@ class Bus(Protocol):
         ...
 
     def serve(self, key: str, server: Server) -> Handle:
-        """Answer queries on ``key`` (called on the bus's receiving thread: read state, never
-        write, and return soon)."""
+        """Answer queries on ``key`` (called on the bus's thread: read state, never write)."""
         ...
 
     def ask(self, keys: Sequence[str], timeout: float) -> list[Answer]:
@@ -126,7 +125,7 @@ class ZenohBus:
                 else:
                     query.reply(reply.key, reply.payload)
 
-        return _Undeclare(self.session.declare_queryable(key, direct(answer)))
+        return _Undeclare(self.session.declare_queryable(key, answer))
 
     def ask(self, keys: Sequence[str], timeout: float) -> list[Answer]:
         pending = [self.session.get(key, timeout=timeout) for key in keys]  # all in flight
