@@ -141,7 +141,7 @@ def _pair(
 def _row(n: int, ticks: int, pairs: list[Pair]) -> dict[str, Any]:
     """A size's figures: with one pair, that pair's; with more, the medians, the pair whose
     ratio is the median for the CPU per tick, and every pair's ratio."""
-    median = pairs[sorted(range(len(pairs)), key=lambda i: pairs[i].ratio)[(len(pairs) - 1) // 2]]
+    median = sorted(pairs, key=lambda p: p.ratio)[(len(pairs) - 1) // 2]
     floor_tps = statistics.median(p.floor["ticks_per_s"] for p in pairs)
     ours = statistics.median(p.run.summary["ticks_per_s"] for p in pairs)
     row: dict[str, Any] = {
