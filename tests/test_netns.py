@@ -309,7 +309,10 @@ def test_lockstep_partition_longer_than_the_lease_drops_the_cut_agents(
     # cannot answer a tick sensed after the cut.
     first, last = min(gone.values()), max(gone.values())
     assert first >= CUT_AT and last - first <= 1
-    assert longest_pause(out) >= 0.9 * LEASE_MS / 1000  # until the router's lease expired
+    # Until the router's lease expired, and not 10 s longer: dropping the two dead links must not
+    # stall the router (tools/commands/router.py, RX_THREADS). With Zenoh's 2 receiving threads
+    # this run paused 13-15 s in 4 of 8 tries on a loaded machine, and 1 in 4 lost healthy agents.
+    assert 0.9 * LEASE_MS / 1000 <= longest_pause(out) < LEASE_MS / 1000 + 5
     scn = load_scenario(scenario)
     got, ref = read_trajectory(out, dt=scn.dt), simulate(scn)
     assert np.array_equal(got.positions[: first + 1], ref.positions[: first + 1])

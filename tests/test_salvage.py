@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 from pathlib import Path
 
@@ -245,3 +246,29 @@ def test_a_file_that_is_no_log_gets_one_clear_error_and_a_non_zero_exit(
         assert not (tmp_path / "fixed.mcap").exists(), kind  # nothing written from it
     if command == "recover":  # the cut log, and only it, was recovered
         assert is_finished(tmp_path / "fixed.mcap")
+
+
+@pytest.mark.parametrize(
+    ("ticks", "problem"),
+    [((0, 1, 3, 4), "1 missing (first 2)"), ((0, 1, 1, 2), "1 recorded twice (first 1)")],
+)
+def test_a_log_with_a_gap_in_its_ticks_is_refused_not_read_shifted(
+    tmp_path: Path, ticks: tuple[int, ...], problem: str
+) -> None:
+    """A logger that lost its session for a while (a router stalled by a dead link did that)
+    leaves a gap: read as rows, every later tick would sit one row early and compare wrongly
+    with the reference. The reader names the gap instead."""
+    from shoal.bus import codec
+    from shoal.bus.keys import Keys
+    from shoal.bus.messages import TickRecord
+
+    out = tmp_path / "gap.mcap"
+    with McapLog(out, run="gap") as log:
+        for t in ticks:
+            one = ((float(t), 0.0),)
+            rec = TickRecord(t, one, ((1.0, 0.0),), (False,), (1.0,), (1.0,), (0.0,), (True,),
+                             (False,))  # fmt: skip
+            log.add(Keys("gap").tick, codec.encode_tick(rec), t)
+    wanted = re.escape(f"not ticks 0..{ticks[-1]} once each: {problem}")
+    with pytest.raises(ValueError, match=wanted):
+        read_trajectory(out, dt=0.01)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import threading
 from pathlib import Path
 
@@ -17,6 +18,14 @@ from shoal.bus.secure import Identity, Material
 from shoal.bus.zconfig import zenoh_config
 from shoal.tools.commands.options import check_run_id
 from shoal.tools.procs.session import open_session
+
+# Zenoh closes a TCP link with SO_LINGER 10 s: a link to a host that went silent with data still
+# unsent blocks the runtime thread that drops it for up to 10 s (eclipse-zenoh/zenoh#1101). Its
+# receiving pool has 2 threads, so two agents cut off at once stopped this router reading from
+# anybody for 10 s, and healthy clients, the leader among them, then expired on their lease
+# (docs/multihost.md §3). With 8, up to 7 links can die at once and the others are still read.
+RX_THREADS = 8
+RUNTIME = f"(rx: (worker_threads: {RX_THREADS}))"
 
 
 @click.command()
@@ -56,6 +65,7 @@ def router(
 ) -> None:
     """Run a Zenoh router until SIGINT/SIGTERM (or until run RUN is over)."""
     exit_on_signals()
+    os.environ.setdefault("ZENOH_RUNTIME", RUNTIME)  # read when the session starts; the user's wins
     listen = listen or (f"{'tls' if secure else 'tcp'}/127.0.0.1:7447",)
     identity = Identity(Material(secure), ROUTER) if secure else None
     try:

@@ -43,7 +43,24 @@ def read_trajectory(path: Path, *, dt: float) -> Trajectory:
     records = read_ticks(path)
     if not records:
         raise ValueError(f"{path}: no tick records")
+    ticks = [r.tick for r in records]
+    if ticks != list(range(len(ticks))):  # a gap would shift every later row by a tick
+        raise ValueError(f"{path}: the tick records are not ticks 0..{ticks[-1]} once each: "
+                         f"{_gaps(ticks)}")  # fmt: skip
     return Trajectory.from_records(records, dt)
+
+
+def _gaps(ticks: list[int]) -> str:
+    """What is wrong with a sorted list of tick numbers, for an error message."""
+    seen = set(ticks)
+    missing = [t for t in range(ticks[-1] + 1) if t not in seen]
+    twice = sorted({t for t in ticks if ticks.count(t) > 1}) if len(seen) < len(ticks) else []
+    parts = []
+    if missing:
+        parts.append(f"{len(missing)} missing (first {', '.join(map(str, missing[:5]))})")
+    if twice:
+        parts.append(f"{len(twice)} recorded twice (first {', '.join(map(str, twice[:5]))})")
+    return "; ".join(parts)
 
 
 def read_documents(path: Path) -> dict[str, dict[str, Any]]:
