@@ -526,3 +526,37 @@ def test_records_before_a_late_summary_still_reach_the_live_view() -> None:
 
     assert _late_summary(inbox, keys, within=0.0, sink=Sink()) == {"collisions": 0}
     assert handed == [("tick", 7, b"tick 49"), ("event", 12, b"run finished")]
+
+
+def test_an_event_that_trails_the_summary_still_reaches_the_live_view() -> None:
+    """The event and the summary come through two subscribers, which deliver apart: under load
+    "run finished" was seen after the summary that followed it, and the live view lost it (a CI
+    failure of test_a_secured_run_serves_the_worlds_events). The summary counts the world's
+    events; the monitor hands over those still missing, then stops at once, or gives up after
+    its bound when the count is never reached."""
+    from shoal.bus.keys import Keys
+    from shoal.bus.runtime import Arrival, ArrivalKind, Inbox
+    from shoal.tools.procs.launch import _Counted, _trailing_events
+
+    keys = Keys("trail")
+    handed: list[bytes] = []
+
+    class Sink:
+        def tick(self, ns: int, payload: bytes) -> None:
+            handed.append(b"tick")
+
+        def event(self, ns: int, payload: bytes) -> None:
+            handed.append(payload)
+
+    inbox, sink = Inbox(), _Counted(Sink(), events=1)  # one event already handed
+    for key, payload in [(keys.tick, b""), (keys.event, b"run finished"), (keys.event, b"x")]:
+        inbox.put(Arrival(ArrivalKind.DATA, key, payload))
+    _trailing_events(inbox, keys, sink, 2, within=60.0)  # returns at the count, not the bound
+    assert handed == [b"run finished"] and sink.events == 2
+    assert inbox.get(timeout=0) == Arrival(ArrivalKind.DATA, keys.event, b"x")  # left alone
+
+    started = time.monotonic()
+    _trailing_events(Inbox(), keys, sink, 3, within=0.2)  # never comes: bounded
+    assert 0.2 <= time.monotonic() - started < 30
+    _trailing_events(Inbox(), keys, sink, None, within=60.0)  # an older world: no count
+    assert sink.events == 2

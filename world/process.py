@@ -63,6 +63,7 @@ class World(Declarations):
         self.bus = bus
         self.inbox = Inbox()
         self.dropped = 0  # malformed or stale messages counted and dropped
+        self.events = 0  # world events published (the summary says how many, see _event)
         self.alive = set(range(1, scenario.n + 1))
         self.departed: dict[int, int] = {}  # agent → the tick its token vanished at
         self.aborted: str | None = None  # why the run ended early (the leader is gone)
@@ -199,6 +200,9 @@ class World(Declarations):
             end = traj.ticks
             why = f"run ended early at tick {end}: {self.aborted}"
             self._event(end, 4, 0, f"{why}; {self.dropped} bad messages dropped")
+        # A subscriber to both keys may get the summary first: Zenoh keeps a publisher's order
+        # per subscriber, not across two. The count lets it wait for the last event.
+        summary["events"] = self.events
         self.summary_out.put(codec.encode_document("summary", summary))
         return summary
 
@@ -327,6 +331,7 @@ class World(Declarations):
 
     def _event(self, tick: int, level: int, agent: int, text: str) -> None:
         self.event_out.put(codec.encode_event(Event(tick, level, agent, text)))
+        self.events += 1
         warn(f"world: {text}")
 
 

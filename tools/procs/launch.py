@@ -208,6 +208,7 @@ def _monitor(
             *([subscribe(session, keys.event, inbox)] if sink is not None else []),
         ]
         token = session.liveliness().declare_token(keys.alive_process("monitor"))
+        counted = None if sink is None else _Counted(sink)
         show = plan.progress and sys.stderr.isatty()
         with progress_bar(plan.steps, "simulated time", show=show) as bar:
             checked = 0.0
@@ -217,7 +218,7 @@ def _monitor(
                     try:
                         swarm.check()
                     except ChildFailed:
-                        late = _late_summary(inbox, keys, within=2.0, sink=sink)
+                        late = _late_summary(inbox, keys, within=2.0, sink=counted)
                         if late is None:
                             raise
                         summary = late
@@ -237,11 +238,11 @@ def _monitor(
                     if arrival.key == keys.summary:
                         summary = codec.decode_document("summary", arrival.payload)
                         break
-                    if sink is not None:
+                    if counted is not None:
                         if arrival.key == keys.event:
-                            sink.event(arrival.time_ns, arrival.payload)
+                            counted.event(arrival.time_ns, arrival.payload)
                             continue
-                        sink.tick(arrival.time_ns, arrival.payload)
+                        counted.tick(arrival.time_ns, arrival.payload)
                     records += 1
                     if window is not None and records == 1:
                         window.open()
@@ -252,8 +253,42 @@ def _monitor(
                         bar.update(tick + 1 - bar.pos)
                 except DecodeError:
                     continue  # a stranger's garbage on our keys does not stop the run
+        if counted is not None:
+            _trailing_events(inbox, keys, counted, summary.get("events"), within=2.0)
         del held, token
     return summary, startup
+
+
+@dataclass
+class _Counted:
+    """A sink that counts the events handed to it."""
+
+    sink: TickSink
+    events: int = 0
+
+    def tick(self, ns: int, payload: bytes) -> None:
+        self.sink.tick(ns, payload)
+
+    def event(self, ns: int, payload: bytes) -> None:
+        self.events += 1
+        self.sink.event(ns, payload)
+
+
+def _trailing_events(
+    inbox: Inbox, keys: Keys, sink: _Counted, published: object, within: float
+) -> None:
+    """Hand ``sink`` the world's events that trail its summary, until it has all ``published``
+    (the summary's count) or ``within`` s passed: the event and summary subscribers deliver
+    apart, so "run finished" can arrive after the summary that followed it."""
+    if not isinstance(published, int):
+        return  # a world too old to count its events
+    deadline = time.monotonic() + within
+    while sink.events < published:
+        arrival = inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
+        if arrival is None:
+            return
+        if arrival.kind == "data" and arrival.key == keys.event:
+            sink.event(arrival.time_ns, arrival.payload)
 
 
 def _note_lost_agents(swarm: Swarm, lost: list[str]) -> None:
