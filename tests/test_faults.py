@@ -141,20 +141,32 @@ def test_restarted_follower_is_taken_back_and_returns_to_its_slot_in_realtime(
     moving = np.flatnonzero(np.any(traj.velocities[back.tick :, 3] != 0.0, axis=1))
     assert moving.size > 0, "the world never applied a command of the restarted agent"
     first = back.tick + int(moving[0])  # the tick its first command was applied
-    z = formation_error(traj.positions[first], scn.offsets)
-    bound = convergence_bound(scn.adjacency, z, directed=scn.directed, beta=scn.control.beta,
-                              f_max=peak_speed(scn.path))  # fmt: skip
     mine = formation_errors(scn, traj)[:, 2]  # agent 4 is the third follower
     below = np.flatnonzero(mine[first:] <= scn.tolerance)
     assert below.size > 0, "agent 4 never got back within tolerance of its slot"
-    took = float(below[0]) * scn.dt
-    assert took <= bound
+    # Theorem 1 holds for the law running, not for agents the world holds still: on a loaded
+    # machine a late command is stale and the world stops that follower (in CI once, 2.91 s
+    # against a 1.95 s bound). So the bound runs from the last tick a follower was held (an
+    # exactly zero velocity) before agent 4 got back. The leader may stop at its path's end.
+    reached = first + int(below[0])
+    followers = [i - 1 for i in range(1, scn.n + 1) if not scn.agent_config(i).is_leader]
+    stopped = traj.velocities[first:reached][:, followers] == 0.0
+    held = np.flatnonzero(np.all(stopped, axis=2).any(axis=1))
+    start = first if held.size == 0 else first + int(held[-1]) + 1
+    z = formation_error(traj.positions[start], scn.offsets)
+    bound = convergence_bound(scn.adjacency, z, directed=scn.directed, beta=scn.control.beta,
+                              f_max=peak_speed(scn.path))  # fmt: skip
+    took = (reached - start) * scn.dt
+    load = {k: summary[k] for k in ("missed_deadlines", "stale_holds", "latency_p99_ms")}
+    assert took <= bound, f"from tick {start} (error {mine[start]:.2f} m); {load}"
     # And it stays there: median error over the last 2 s ≤ 3 × tolerance (≈ 1 × unloaded).
     assert float(np.median(mine[-200:])) <= 3 * scn.tolerance
     print(
         f"\nrejoin: gone at tick {gone.tick}, back at tick {back.tick} ({back_wall:.2f} s after "
-        f"the restart), first command applied at tick {first}, error {mine[first]:.2f} m → "
-        f"≤ {scn.tolerance} m in {took:.2f} s (Theorem-1 bound from there {bound:.2f} s)"
+        f"the restart), first command applied at tick {first}, followers held at {held.size} "
+        "ticks after it, "
+        f"error {mine[start]:.2f} m at tick {start} → ≤ {scn.tolerance} m in {took:.2f} s "
+        f"(Theorem-1 bound from there {bound:.2f} s)"
     )
 
 
