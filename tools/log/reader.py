@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -52,9 +53,9 @@ def read_trajectory(path: Path, *, dt: float) -> Trajectory:
 
 def _gaps(ticks: list[int]) -> str:
     """What is wrong with a sorted list of tick numbers, for an error message."""
-    seen = set(ticks)
-    missing = [t for t in range(ticks[-1] + 1) if t not in seen]
-    twice = sorted({t for t in ticks if ticks.count(t) > 1}) if len(seen) < len(ticks) else []
+    counts = Counter(ticks)
+    missing = [t for t in range(ticks[-1] + 1) if t not in counts]
+    twice = sorted(t for t, c in counts.items() if c > 1)
     parts = []
     if missing:
         parts.append(f"{len(missing)} missing (first {', '.join(map(str, missing[:5]))})")
