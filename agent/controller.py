@@ -23,7 +23,7 @@ from shoal.agent.collision import Evasion, collision_course, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
-from shoal.agent.leader import detour, lead
+from shoal.agent.leader import lead, steer
 from shoal.bus.geometry import Vector, VectorLike, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.path import leader_velocity
@@ -42,6 +42,7 @@ class Memory:
     busy : ticks in a row this follower has been busy (evading, filtered or far from its slot).
     calm : ticks in a row it has not been busy, counted up to CALM_TAUS heading time constants.
     route : a leader's waypoints still to go (with the safety filter), else None.
+    planned : how many of ``route``'s first points are a detour's vertices (agent/leader.py).
     """
 
     heading: Final[Vector]
@@ -51,6 +52,7 @@ class Memory:
     busy: Final[int]
     route: Final[tuple[Vector, ...] | None]
     calm: Final[int]
+    planned: Final[int]
 
     def __init__(
         self,
@@ -61,6 +63,7 @@ class Memory:
         busy: int = 0,
         route: tuple[Vector, ...] | None = None,
         calm: int = 0,
+        planned: int = 0,
     ) -> None:
         self.heading = heading
         self.evasion = evasion
@@ -69,6 +72,7 @@ class Memory:
         self.busy = busy
         self.route = route
         self.calm = calm
+        self.planned = planned
 
 
 picklable(Memory)
@@ -203,6 +207,7 @@ class Controller:
             busy=memory.busy,
             route=memory.route,
             calm=memory.calm,
+            planned=memory.planned,
         )
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
@@ -225,10 +230,10 @@ class Controller:
         (gone) or evading (Ω_j = 1) is not followed this tick.
         """
         cfg, p = self.config, self.params
-        evasion, lag, route = memory.evasion, 0.0, memory.route
+        evasion, lag, route, planned = memory.evasion, 0.0, memory.route, memory.planned
         v: VectorLike
         if route is not None and isinstance(cfg.path, Waypoints):
-            v, route = self._lead(route, sensing, cfg.path.speed)
+            v, route, planned = self._lead(route, planned, sensing, cfg.path.speed)
         elif cfg.path is not None:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
@@ -266,25 +271,30 @@ class Controller:
             busy=busy,
             route=route,
             calm=0 if busy else min(memory.calm + 1, self.calm_ticks),
+            planned=planned,
         )
         command = Command(agent_id=cfg.agent_id, tick=sensing.tick, velocity=out, filtered=filtered)
         return memory, command
 
     def _lead(
-        self, route: tuple[Vector, ...], sensing: Sensing, speed: float
-    ) -> tuple[Vector, tuple[Vector, ...]]:
+        self, route: tuple[Vector, ...], planned: int, sensing: Sensing, speed: float
+    ) -> tuple[Vector, tuple[Vector, ...], int]:
         """The leader's nominal with the safety filter: round any sensed obstacle its next leg
-        would cross (keeping r_j + 2ρ + ε from the centre), then on to the next waypoint."""
+        would cross (keeping r_j + 2ρ + ε from the centre), re-planned when an obstacle comes
+        into view across the detour ahead, then on to the next waypoint; the route left and
+        how many of its first points are the detour's."""
         p = self.params
-        route = detour(
+        route, planned = steer(
             sensing.position,
             route,
+            planned,
             sensing.obstacle_centres,
             sensing.obstacle_radii,
             guard=p.safety_margin,
             clearance=p.safety_margin + p.epsilon,
         )
-        return lead(sensing.position, route, speed, self.config.dt)
+        v, left = lead(sensing.position, route, speed, self.config.dt)
+        return v, left, max(0, planned - (len(route) - len(left)))
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]

@@ -17,6 +17,7 @@ detour keeps R' from the centre (in 3-D the polygon lies in the plane of the leg
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -54,6 +55,44 @@ def lead(
     to_next = sub(route[0], here)
     dist = norm(to_next)
     return scale(min(speed * dt, dist) / (dist * dt), to_next), route
+
+
+def steer(
+    position: VectorLike,
+    route: tuple[Vector, ...],
+    planned: int,
+    centres: Sequence[VectorLike],
+    radii: Sequence[float],
+    *,
+    guard: float,
+    clearance: float,
+) -> tuple[tuple[Vector, ...], int]:
+    """The route ahead of a leader at ``position``, and how many of its first points are the
+    vertices of a detour (``planned``; the rest are the scenario's waypoints).
+
+    A detour is planned against the obstacles sensed when it is planned; one that comes into
+    view later can lie across it (a vertex inside its guard): then the detour still ahead is
+    dropped and planned anew, from here to the next waypoint, against every obstacle sensed now.
+    Without that the leader headed for a vertex it could never reach and circled the obstacle
+    that held it for the rest of the run (issue 29: 5 of 6 fields of another generator that
+    never arrived). While the detour ahead is clear it is kept as it is; with no detour ahead,
+    :func:`detour` plans one if the next leg needs it. Points already reached are dropped."""
+    here = plain(position)
+    while route and norm(sub(route[0], here)) <= _REACHED:
+        route, planned = route[1:], max(0, planned - 1)
+    if planned and len(centres):
+        circles = [(plain(c), float(r)) for c, r in zip(centres, radii)]
+        ahead = [here, *route[: planned + 1]]
+        if any(
+            _blocks(a, b, c, r, guard, clearance)
+            for a, b in itertools.pairwise(ahead)
+            for c, r in circles
+        ):
+            route, planned = route[planned:], 0
+    if planned:
+        return route, planned
+    planned_route = detour(here, route, centres, radii, guard=guard, clearance=clearance)
+    return planned_route, len(planned_route) - len(route)
 
 
 def detour(

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shoal.agent.leader import detour, lead
+from shoal.agent.leader import detour, lead, steer
 from shoal.bus.geometry import segment_distance
 from shoal.world.errors import AssumptionError, DetourWarning
 from shoal.world.loader import scenario_from_dict
@@ -130,3 +130,57 @@ def test_the_formation_follows_a_leader_that_goes_round_an_obstacle_on_its_path(
     assert s.final_formation_error <= s.tolerance  # and the formation closed up behind it
     leader_y = traj.positions[:, 0, 1]
     assert leader_y.min() < -1.0  # it went round (below: the centre is above the leg)
+
+
+def test_a_detour_crossed_by_an_obstacle_that_comes_into_view_is_planned_anew() -> None:
+    start, goal = (0.0, 0.0), (12.0, 0.0)
+    first = (np.array([[6.0, -0.1]]), np.array([1.0]))  # below the leg: round above, shorter
+    route, planned = steer(start, (goal,), 0, *first, guard=RHO, clearance=CLEAR)
+    assert planned == len(route) - 1 >= 1 and all(p[1] > 0 for p in route[:-1])
+    # Closer in, a second obstacle appears above the first, on the detour (0.43 m edge to edge
+    # from it, > 2ρ): the top polygon now runs through its guard.
+    both = (np.array([[6.0, -0.1], [6.2, 2.3]]), np.array([1.0, 1.0]))
+    assert any(segment_distance(both[0][1], a, b) < 1.0 + RHO for a, b in _legs(np.zeros(2), route))
+    again, planned = steer(start, route, planned, *both, guard=RHO, clearance=CLEAR)
+    assert planned == len(again) - 1 >= 1 and again[-1] == goal
+    assert all(p[1] < 0 for p in again[:-1])  # round below now, the long way
+    for a, b in _legs(np.zeros(2), again):
+        for c, r in zip(*both, strict=True):
+            assert segment_distance(c, a, b) >= r + RHO + CLEAR / 2
+
+
+def test_a_clear_detour_ahead_is_kept_and_reached_vertices_are_counted_off() -> None:
+    obstacle = (np.array([[6.0, -0.1]]), np.array([1.0]))
+    route, planned = steer((0.0, 0.0), ((12.0, 0.0),), 0, *obstacle, guard=RHO, clearance=CLEAR)
+    kept, still = steer((0.0, 0.0), route, planned, *obstacle, guard=RHO, clearance=CLEAR)
+    assert kept is route and still == planned
+    on, left = steer(route[0], route, planned, *obstacle, guard=RHO, clearance=CLEAR)
+    assert on == route[1:] and left == planned - 1
+
+
+def test_a_leader_whose_detour_a_later_obstacle_blocks_still_reaches_its_goal() -> None:
+    """Issue 29's reproduction: the second obstacle is beyond the sensing radius when the
+    leader plans round the first; before re-planning it circled the first for 38 s and ended
+    21.6 m short."""
+    from shoal.tools.simulator import simulate
+    from shoal.world.metrics import summarize
+
+    field = {
+        "dim": 2, "dt": 0.01, "duration": 90.0,
+        "control": {"sensing_radius": 6.0, "trigger_radius": 5.0},
+        "graph": {"edges": [[1, 2]]},
+        "agents": [{"offset": [0, 0]}, {"offset": [-3, 0]}],
+        "leader": {"waypoints": [[0, 0], [40, 0]], "speed": 0.77},
+        "obstacles": [
+            {"centre": [18.394, -0.093], "radius": 0.98},
+            {"centre": [18.597, 2.29], "radius": 0.98},
+        ],
+    }  # fmt: skip
+    with pytest.warns(DetourWarning):
+        scn = scenario_from_dict(field)
+    traj = simulate(scn)
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.leader_shortfall <= 1e-9
+    arrived = np.flatnonzero(np.linalg.norm(traj.positions[:, 0] - [40.0, 0.0], axis=1) <= 1e-9)
+    assert arrived.size and arrived[0] * scn.dt < 60.0  # the route alone takes 52 s
+    assert s.final_formation_error <= s.tolerance
