@@ -92,13 +92,15 @@ def vdot(a: Sequence[float], b: Sequence[float]) -> float:
 
 def right_of(heading: Sequence[float]) -> tuple[float, ...]:
     """A unit vector to the right of the unit ``heading``: clockwise in the plane; in 3-D
-    heading × z (horizontal), or the x axis for a vertical heading."""
+    heading × z (horizontal), or for a vertical heading the x axis, its sign by the heading's:
+    two agents head on along z then turn opposite ways and pass, where one axis for both sent
+    them side by side the same way and held them for good."""
     if len(heading) == 2:
         return (heading[1], -heading[0])
-    hx, hy, _hz = heading
+    hx, hy, hz = heading
     size = math.hypot(hx, hy)
     if size < 1e-9:
-        return (1.0, 0.0, 0.0)
+        return (1.0 if hz >= 0.0 else -1.0, 0.0, 0.0)
     return (hy / size, -hx / size, 0.0)
 
 

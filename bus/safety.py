@@ -311,6 +311,41 @@ def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) 
     return tuple([x * (speed / size) for x in turned])
 
 
+def slide_right(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) -> Vector | None:
+    """In a jam, the way out along the right-hand face of the agent's cell; None when the agent
+    is not jammed or no face leads out.
+
+    The right-hand rule (:func:`sidestep`) turns the nominal to the right of whoever holds the
+    agent; in a crowd pressed together from every side (eight followers on a ring, each sent to
+    the opposite side through the leader in the middle: issue 29) the turned nominal is blocked
+    too, every agent's projection is 0, and nobody moves again. The cell of a jammed agent is a
+    cone at its position that opens away from the crowd: its faces are the bisectors with the
+    agents that hold it. So when the velocity kept is still below :data:`SIDESTEP_BELOW` of the
+    nominal's speed, each tight agent row's face is followed to the right of "towards that
+    agent" at the nominal's speed, projected onto every row, and the direction that keeps the
+    most speed wins (ties: the first row, in sensing order). Every agent of the jam turns the
+    same way round, so the crowd unwinds like a roundabout instead of waiting for a gap
+    (Zhou, Wang, Bandyopadhyay & Schwager 2017, buffered Voronoi cells: the right-hand rule on
+    the cell's boundary). The answer is a projection onto the same rows: safety does not depend
+    on it. Obstacles' rows are left to :func:`keep_going`: they do not move out of the way."""
+    speed = math.sqrt(vdot(nominal, nominal))
+    if speed == 0.0 or vdot(filtered, filtered) >= (SIDESTEP_BELOW * speed) ** 2:
+        return None
+    best: Vector | None = None
+    best_size = 0.0
+    for r in rows:
+        if r.obstacle or not _tight(r, filtered, dt):
+            continue
+        right = right_of(tuple([-g for g in r.normal]))
+        again = project(tuple([x * speed for x in right]), rows, dt)
+        if again.fallback:
+            continue
+        size = vdot(again.velocity, again.velocity)
+        if size > best_size * (1 + 1e-9):
+            best, best_size = again.velocity, size
+    return best
+
+
 def keep_going(
     nominal: Vector, filtered: Vector, previous: Vector, rows: Sequence[Row], dt: float
 ) -> Vector | None:
@@ -396,6 +431,9 @@ def safe_velocity(
                     out.velocity, out.velocity
                 ):
                     out = Filtered(again.velocity, active=True)
+        way = slide_right(capped, out.velocity, rows, dt)
+        if way is not None:
+            out = Filtered(way, active=True)
     if capped is not nominal and not out.active:
         return Filtered(out.velocity, active=True)
     return out
