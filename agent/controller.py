@@ -23,7 +23,7 @@ from shoal.agent.collision import Evasion, collision_course, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
-from shoal.agent.leader import lead, steer
+from shoal.agent.leader import Known, lead, remember, steer
 from shoal.bus.geometry import Vector, VectorLike, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.path import leader_velocity
@@ -43,6 +43,7 @@ class Memory:
     calm : ticks in a row it has not been busy, counted up to CALM_TAUS heading time constants.
     route : a leader's waypoints still to go (with the safety filter), else None.
     planned : how many of ``route``'s first points are a detour's vertices (agent/leader.py).
+    known : the standing obstacles a leader with a route has sensed so far (agent/leader.py).
     """
 
     heading: Final[Vector]
@@ -53,6 +54,7 @@ class Memory:
     route: Final[tuple[Vector, ...] | None]
     calm: Final[int]
     planned: Final[int]
+    known: Final[Known]
 
     def __init__(
         self,
@@ -64,6 +66,7 @@ class Memory:
         route: tuple[Vector, ...] | None = None,
         calm: int = 0,
         planned: int = 0,
+        known: Known = (),
     ) -> None:
         self.heading = heading
         self.evasion = evasion
@@ -73,6 +76,7 @@ class Memory:
         self.route = route
         self.calm = calm
         self.planned = planned
+        self.known = known
 
 
 picklable(Memory)
@@ -208,6 +212,7 @@ class Controller:
             route=memory.route,
             calm=memory.calm,
             planned=memory.planned,
+            known=memory.known,
         )
         sigma, theta = self.shape(tick, agreed)
         state = AgentState(
@@ -231,9 +236,13 @@ class Controller:
         """
         cfg, p = self.config, self.params
         evasion, lag, route, planned = memory.evasion, 0.0, memory.route, memory.planned
+        known = memory.known
         v: VectorLike
         if route is not None and isinstance(cfg.path, Waypoints):
-            v, route, planned = self._lead(route, planned, sensing, cfg.path.speed)
+            known = remember(
+                known, sensing.obstacle_ids, sensing.obstacle_centres, sensing.obstacle_radii
+            )
+            v, route, planned = self._lead(route, planned, known, sensing, cfg.path.speed)
         elif cfg.path is not None:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
@@ -272,24 +281,30 @@ class Controller:
             route=route,
             calm=0 if busy else min(memory.calm + 1, self.calm_ticks),
             planned=planned,
+            known=known,
         )
         command = Command(agent_id=cfg.agent_id, tick=sensing.tick, velocity=out, filtered=filtered)
         return memory, command
 
     def _lead(
-        self, route: tuple[Vector, ...], planned: int, sensing: Sensing, speed: float
+        self,
+        route: tuple[Vector, ...],
+        planned: int,
+        known: Known,
+        sensing: Sensing,
+        speed: float,
     ) -> tuple[Vector, tuple[Vector, ...], int]:
-        """The leader's nominal with the safety filter: round any sensed obstacle its next leg
-        would cross (keeping r_j + 2ρ + ε from the centre), re-planned when an obstacle comes
-        into view across the detour ahead, then on to the next waypoint; the route left and
-        how many of its first points are the detour's."""
+        """The leader's nominal with the safety filter: round any obstacle it has seen that its
+        next leg would cross (keeping r_j + 2ρ + ε from the centre), re-planned when an obstacle
+        comes into view across the detour ahead, then on to the next waypoint; the route left
+        and how many of its first points are the detour's."""
         p = self.params
         route, planned = steer(
             sensing.position,
             route,
             planned,
-            sensing.obstacle_centres,
-            sensing.obstacle_radii,
+            [c for _, c, _ in known],
+            [r for _, _, r in known],
             guard=p.safety_margin,
             clearance=p.safety_margin + p.epsilon,
         )

@@ -57,6 +57,25 @@ def lead(
     return scale(min(speed * dt, dist) / (dist * dt), to_next), route
 
 
+Known = tuple[tuple[int, Vector, float], ...]  # (obstacle id, centre m, radius m), by id
+
+
+def remember(
+    known: Known, ids: Sequence[int], centres: Sequence[VectorLike], radii: Sequence[float]
+) -> Known:
+    """``known`` with the sensed standing obstacles added, in id order (the order the world
+    senses them in). A leader plans its detours against every obstacle it has seen, not only
+    those in range now: planning against what is in view alone, a leader going round a cluster
+    lost sight of one obstacle, planned round the other side, saw it again and turned back, for
+    the rest of the run (measured on a hard field, tools/campaign/hard.py seed 33)."""
+    if all(any(i == k for k, _, _ in known) for i in ids):
+        return known
+    merged = {k: (k, c, r) for k, c, r in known}
+    for i, c, r in zip(ids, centres, radii):
+        merged.setdefault(i, (i, plain(c), float(r)))
+    return tuple([merged[k] for k in sorted(merged)])
+
+
 def steer(
     position: VectorLike,
     route: tuple[Vector, ...],

@@ -129,7 +129,7 @@ def test_the_messages_keep_their_dataclass_behaviour_in_both_builds(installed: P
             "sigma=2.0, theta=0.0)"
         )
         assert out["fields"] == ["heading", "evasion", "bid", "sigma_consensus", "busy", "route",
-                                 "calm", "planned"]  # fmt: skip
+                                 "calm", "planned", "known"]  # fmt: skip
     if _compiler():
         assert compiled["assigned"] is False and compiled["tick"] == 2
 
