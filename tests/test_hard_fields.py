@@ -1,0 +1,69 @@
+"""The adversarial generator (tools/campaign/hard.py): admissible, reproducible fields that
+carry the hard cases — reversals, rotations by π, clusters just wider than the guards, obstacles
+on the leader's legs — in 2-D and 3-D."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from shoal.bus.geometry import segment_distance
+from shoal.tools.campaign.hard import RHO, SLACK, hard_field
+from shoal.world.errors import BetaWarning
+from shoal.world.loader import parse_scenario
+
+SEEDS = range(24)
+
+
+@pytest.fixture(scope="module", params=[2, 3])
+def fields(request: pytest.FixtureRequest) -> list[object]:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return [hard_field(seed, request.param) for seed in SEEDS]
+
+
+def test_the_same_seed_gives_the_same_field_byte_for_byte() -> None:
+    assert hard_field(5, 2).source == hard_field(5, 2).source
+    assert hard_field(5, 2).source != hard_field(6, 2).source
+    assert hard_field(5, 3).dim == 3
+
+
+def test_every_field_is_admissible_and_reloads_from_its_own_text(fields: list) -> None:
+    for f in fields:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            again = parse_scenario(f.source, default_name="x")  # raises if refused
+        assert not [w for w in caught if issubclass(w.category, BetaWarning)]
+        assert again.obstacles == f.obstacles and again.name == f.name
+        assert 4 <= f.n <= 10 and f.duration >= SLACK
+
+
+def test_the_fields_carry_the_hard_cases(fields: list) -> None:
+    reversals = rotations = clusters = on_leg = 0
+    for f in fields:
+        pts = np.asarray(f.path.points)
+        legs = np.diff(pts, axis=0)
+        for a, b in itertools.pairwise(legs):
+            cos = float(a @ b / np.linalg.norm(a) / np.linalg.norm(b))
+            reversals += cos < math.cos(math.radians(135))
+        rotations += any(r.rotate == math.pi for r in f.reshapes)
+        c, r = f.obstacle_centres, f.obstacle_radii
+        for i, j in itertools.combinations(range(len(r)), 2):
+            gap = float(np.linalg.norm(c[i] - c[j]) - r[i] - r[j])
+            clusters += 2 * RHO < gap <= 2 * RHO + 0.3
+        on_leg += any(
+            segment_distance(c[o], pts[k], pts[k + 1]) - r[o] <= RHO
+            for o in range(len(r))
+            for k in range(len(pts) - 1)
+        )
+    n = len(fields)
+    assert reversals >= n // 4 and rotations >= n // 4 and clusters >= n and on_leg >= n // 4
+
+
+def test_a_dimension_other_than_2_or_3_is_refused() -> None:
+    with pytest.raises(ValueError, match="dim must be 2 or 3"):
+        hard_field(0, 4)
