@@ -57,6 +57,12 @@ def check_graph(s: Scenario) -> None:
     _assumption2(s)
 
 
+def _named(s: Scenario, o: int) -> str:
+    """The field of standing obstacle ``o`` (an index into ``obstacle_centres``): its place in
+    the scenario's ``obstacles`` list, where moving ones may come before it."""
+    return f"obstacles[{s.standing_ids[o]}]"
+
+
 def _followers(ids: set[int]) -> str:
     return ", ".join(str(i + 1) for i in sorted(ids))
 
@@ -120,7 +126,7 @@ def _assumption4(s: Scenario) -> None:
                     4,
                     f"leader.waypoints[{k}]",
                     f"the leg from waypoint {k} passes {clear:.3g} m from the edge of "
-                    f"obstacles[{o}], within the safety margin {margin} m",
+                    f"{_named(s, o)}, within the safety margin {margin} m",
                 )
         return
     for o in range(len(radii)):
@@ -129,7 +135,7 @@ def _assumption4(s: Scenario) -> None:
             raise AssumptionError(
                 4,
                 "leader.sinusoid",
-                f"the path passes {clear:.3g} m from the edge of obstacles[{o}], "
+                f"the path passes {clear:.3g} m from the edge of {_named(s, o)}, "
                 f"within the safety margin {margin} m",
             )
 
@@ -164,7 +170,7 @@ def _waypoints_reachable(s: Scenario, path: Waypoints) -> None:
             raise AssumptionError(
                 4,
                 f"leader.waypoints[{k}]",
-                f"the waypoint is {dist[o]:.3g} m from the edge of obstacles[{o}], within "
+                f"the waypoint is {dist[o]:.3g} m from the edge of {_named(s, o)}, within "
                 f"2ρ + ε = {keep:.3g} m: the leader can go round an obstacle on its path, but "
                 "not reach a waypoint this close to one",
             )
@@ -190,11 +196,11 @@ def _obstacles_apart(s: Scenario) -> None:
     for i, j in itertools.combinations(range(len(radii)), 2):
         gap = norm(centres[i] - centres[j]) - radii[i] - radii[j]
         if gap <= 0:
-            raise ScenarioError(f"obstacles[{j}]", f"overlaps obstacles[{i}] (Section 3)")
+            raise ScenarioError(_named(s, j), f"overlaps {_named(s, i)} (Section 3)")
         if s.control.safety == "filter" and gap <= 2 * rho:
             raise ScenarioError(
-                f"obstacles[{j}]",
-                f"is {gap:.3g} m from obstacles[{i}], not more than 2ρ = {2 * rho:.3g} m: their "
+                _named(s, j),
+                f"is {gap:.3g} m from {_named(s, i)}, not more than 2ρ = {2 * rho:.3g} m: their "
                 "guard circles meet and an agent can be wedged in the notch between them; "
                 "move them apart or give one obstacle that encloses both",
             )
@@ -219,11 +225,11 @@ def _starts_clear(s: Scenario) -> None:
         dist = np.linalg.norm(centres - pos, axis=1) - radii
         o = int(np.argmin(dist))
         if dist[o] <= s.agent_radius:
-            raise ScenarioError(f"agents[{i}].initial", f"starts inside obstacles[{o}]")
+            raise ScenarioError(f"agents[{i}].initial", f"starts inside {_named(s, o)}")
         if dist[o] < keep:
             raise ScenarioError(
                 f"agents[{i}].initial",
-                f"starts {dist[o]:.3g} m from the edge of obstacles[{o}], inside its guard "
+                f"starts {dist[o]:.3g} m from the edge of {_named(s, o)}, inside its guard "
                 f"circle (ρ = {keep} m): the safety filter needs every agent to start outside",
             )
 
