@@ -34,6 +34,16 @@ def test_every_builtin_is_collision_free_and_converges_within_its_bound(name: st
     assert s.sigma_disagreement == 0  # Proposition 1: in lockstep all apply the same σ
 
 
+@pytest.mark.parametrize("name", builtin_names())
+def test_every_builtin_arrives_without_livelock_and_within_the_theorems_margins(name: str) -> None:
+    scenario, _, s = outcome(name)
+    assert s.arrived and s.not_arrived is None and s.livelocks == 0
+    assert s.arrival_time is not None and s.arrival_time < scenario.duration - 1.0
+    assert s.arrival_tolerance == scenario.separation / 2
+    assert s.separation_margin >= -s.contact_slack
+    assert s.guard_margin is None or s.guard_margin >= -s.contact_slack
+
+
 def test_obstacles_keeps_the_safety_margin_and_evades() -> None:
     scenario, traj, s = outcome("obstacles")
     assert s.min_clearance is not None

@@ -2,12 +2,17 @@
 
 The formation error of follower i at tick k is ‖s_i - s_1 - R(θ)δ_i/σ‖_∞ (m), with the σ, θ that
 agent applied at tick k: the laws and the bounds of Theorem 1 / Remark 3 work per coordinate.
+
+Distances to standing obstacles and between agents are the least over each whole step
+(world/sweep.py), not samples at ticks: an agent that passes through an obstacle between two
+ticks collides. A body contact is an overlap deeper than :func:`contact_slack`; the margins
+against the safety theorem's own bounds (ρ, the separation) are reported beside the count.
+Arrival, its cause when it fails, and livelocks are world/arrival.py's.
 """
 
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -15,10 +20,14 @@ import numpy as np
 
 from shoal.bus.geometry import FloatArray, norm, shaped
 from shoal.bus.path import path_position, peak_speed
+from shoal.bus.safety import TOLERANCE
 from shoal.bus.types import Clock
+from shoal.world.arrival import STALL_SPEED, arrival
 from shoal.world.contacts import contacts
 from shoal.world.field import centres_at
 from shoal.world.scenario import Scenario
+from shoal.world.slots import slot_errors
+from shoal.world.sweep import step_clearances, step_separations
 from shoal.world.theory import convergence_bound
 from shoal.world.trajectory import Trajectory
 
@@ -33,7 +42,7 @@ class Summary:
     dt: float
     collisions: int  # agent–agent, agent–standing obstacle, and agent-at-fault contacts
     min_clearance: float | None  # m: least agent-to-edge distance to a standing obstacle
-    min_interagent_distance: float
+    min_interagent_distance: float  # m: least over whole steps, as min_clearance
     convergence_time: float | None
     convergence_bound: float
     tolerance: float
@@ -53,15 +62,44 @@ class Summary:
     agent_at_fault: int = 0
     obstacle_at_fault: int = 0
     min_mover_clearance: float | None = None  # m: least agent-to-edge distance to a moving one
+    # The safety theorem's own bounds (docs/safety.md): both ≥ 0 with the filter, up to
+    # contact_slack. guard_margin: min_clearance − ρ (None without standing obstacles);
+    # separation_margin: min_interagent_distance − the separation. m.
+    guard_margin: float | None = None
+    separation_margin: float = 0.0
+    contact_slack: float = 0.0  # m: an overlap this shallow is rounding, not a collision
+    # Arrival (world/arrival.py): the leader home and every follower, averaged over a trailing
+    # window, within arrival_tolerance (m) of its slot from arrival_time (s) to the end; else
+    # not_arrived names why: "leader trapped", "deadlock", "livelock" or "out of time".
+    arrived: bool = False
+    arrival_time: float | None = None
+    arrival_tolerance: float = 0.0
+    not_arrived: str | None = None
+    slot_distance: float = 0.0  # m: the farthest follower from its slot at the end (averaged)
+    livelocks: int = 0  # episodes of an agent moving without getting closer to its slot
+    longest_livelock: float = 0.0  # s
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
-# An agent is held by the filter while the filter is active and it moves slower than this, m/s;
-# a hold longer than STALL_TIME, s, is a stall (docs/safety.md, liveness).
-STALL_SPEED = 0.05
+# An agent is held by the filter while the filter is active and it moves slower than
+# STALL_SPEED, m/s (world/arrival.py); a hold longer than STALL_TIME, s, is a stall (docs/safety.md,
+# liveness). A still agent off its slot with the filter idle is not a stall: arrival names it.
 STALL_TIME = 0.5
+
+# m per tick: how much deeper a pair of bodies may overlap each tick without a collision. The
+# filter accepts a row met within bus/safety.py's TOLERANCE (1e-12 m), so an agent pressed
+# against a row may sink that much further every tick, and a pair of agents twice that (each
+# agent's row); the other 2e-12 m cover the rounding of positions (an ulp of a 100 m coordinate
+# is 1.4e-14 m). Over a run of T ticks the overlap is at most T times this.
+CONTACT_SLACK_PER_TICK = 4 * TOLERANCE
+
+
+def contact_slack(ticks: int) -> float:
+    """m: the deepest overlap that is floating-point slack rather than a collision in a run of
+    ``ticks`` ticks (:data:`CONTACT_SLACK_PER_TICK` per tick)."""
+    return max(1, ticks) * CONTACT_SLACK_PER_TICK
 
 
 def holds(traj: Trajectory) -> list[float]:
@@ -78,29 +116,15 @@ def holds(traj: Trajectory) -> list[float]:
 
 
 def formation_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
-    """(T, n-1) formation error of every follower at the start of every tick, m.
-
-    The demanded offsets are :func:`~shoal.bus.geometry.shaped`'s, elementwise over all ticks
-    at once: the same operations, so the same bits; cos and sin by ``math`` on each distinct θ
-    (numpy's may be vectorised differently on another CPU)."""
-    offsets = scenario.offsets[1:]
-    ticks = traj.ticks
-    rel = traj.positions[:-1, 1:] - traj.positions[:-1, :1]
-    theta, sigma = traj.theta[:ticks, 1:], traj.sigma[:ticks, 1:]
-    values, where = np.unique(theta, return_inverse=True)
-    c = np.array([math.cos(t) for t in values.tolist()])[where].reshape(theta.shape)
-    s = np.array([math.sin(t) for t in values.tolist()])[where].reshape(theta.shape)
-    desired = np.broadcast_to(offsets, rel.shape).copy()
-    x, y = offsets[:, 0], offsets[:, 1]
-    desired[..., 0] = x * c + y * -s
-    desired[..., 1] = x * s + y * c
-    desired /= sigma[..., None]
-    return np.asarray(np.abs(rel - desired).max(axis=2), dtype=np.float64)
+    """(T, n-1) formation error of every follower at the start of every tick, m: the ∞-norm of
+    :func:`~shoal.world.slots.slot_errors`."""
+    return np.asarray(np.abs(slot_errors(scenario, traj)).max(axis=2), dtype=np.float64)
 
 
 def clearances(scenario: Scenario, traj: Trajectory) -> FloatArray:
     """(T+1, n, m) distance from every agent to every obstacle's edge at every tick, m
-    (obstacles in scenario order, moving ones where they were)."""
+    (obstacles in scenario order, moving ones where they were): samples for the figures; the
+    reported minima are :class:`Sweep`'s."""
     radii = np.asarray([o.radius for o in scenario.obstacles], dtype=np.float64)
     centres = centres_at(scenario, traj.movers, traj.positions.shape[0])
     diff = traj.positions[:, :, None, :] - centres[:, None, :, :]
@@ -108,13 +132,45 @@ def clearances(scenario: Scenario, traj: Trajectory) -> FloatArray:
 
 
 def pair_distances(traj: Trajectory) -> FloatArray:
-    """(T+1, n(n-1)/2) distance between every pair of agents, m, pairs in (i<j) order."""
+    """(T+1, n(n-1)/2) distance between every pair of agents at every tick, m, pairs in (i<j)
+    order (what the figures draw; the reported minima are :class:`Sweep`'s)."""
     n = traj.positions.shape[1]
     pairs = list(itertools.combinations(range(n), 2))
     return np.stack(
         [np.linalg.norm(traj.positions[:, i] - traj.positions[:, j], axis=1) for i, j in pairs],
         axis=1,
     )
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """The least distances of a run over whole steps (world/sweep.py), m.
+
+    clearance : (T, n, m) to every standing obstacle's edge, in ``standing_ids`` order;
+    separation : (T, n(n-1)/2) between every pair of agents, pairs in (i<j) order;
+    slack : m, :func:`contact_slack` of the run."""
+
+    clearance: FloatArray
+    separation: FloatArray
+    slack: float
+
+    @classmethod
+    def of(cls, scenario: Scenario, traj: Trajectory) -> Sweep:
+        return cls(
+            clearance=step_clearances(
+                traj.positions, scenario.obstacle_centres, scenario.obstacle_radii
+            ),
+            separation=step_separations(traj.positions),
+            slack=contact_slack(traj.ticks),
+        )
+
+    def obstacle_contacts(self, agent_radius: float) -> int:
+        """Body contacts with standing obstacles: onsets of an overlap deeper than the slack."""
+        return onsets(self.clearance < agent_radius - self.slack)
+
+    def agent_contacts(self, agent_radius: float) -> int:
+        """Body contacts between agents: onsets of an overlap deeper than the slack."""
+        return onsets(self.separation < 2 * agent_radius - self.slack)
 
 
 def onsets(flags: np.ndarray[Any, np.dtype[np.bool_]]) -> int:
@@ -154,8 +210,16 @@ def assumption2_violations(scenario: Scenario, omega: np.ndarray[Any, Any]) -> i
     return count
 
 
-def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCKSTEP) -> Summary:
-    """The figures reported after a run under ``clock`` (which sets Algorithm 1's epochs)."""
+def summarize(
+    scenario: Scenario,
+    traj: Trajectory,
+    *,
+    clock: Clock = Clock.LOCKSTEP,
+    swept: Sweep | None = None,
+) -> Summary:
+    """The figures reported after a run under ``clock`` (which sets Algorithm 1's epochs);
+    ``swept``: the run's :class:`Sweep` if the caller has it already."""
+    swept = Sweep.of(scenario, traj) if swept is None else swept
     errors = formation_errors(scenario, traj)
     worst = errors.max(axis=1)
     below = np.flatnonzero(worst <= scenario.tolerance)
@@ -180,18 +244,16 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCK
         beta=scenario.control.beta,
         f_max=peak_speed(scenario.path),
     )
-    collisions = 0
-    min_clearance = min_mover_clearance = None
-    if scenario.obstacles:
+    rho = scenario.control.safety_margin
+    collisions = swept.obstacle_contacts(scenario.agent_radius)
+    collisions += swept.agent_contacts(scenario.agent_radius)
+    min_clearance = float(swept.clearance.min()) if swept.clearance.size else None
+    min_mover_clearance = None
+    if scenario.mover_ids:
         clear = clearances(scenario, traj)
-        standing = clear[:, :, list(scenario.standing_ids)]
-        if standing.size:
-            min_clearance = float(standing.min())
-            collisions += onsets(standing < scenario.agent_radius)
-        if scenario.mover_ids:
-            min_mover_clearance = float(clear[:, :, list(scenario.mover_ids)].min())
-    pairs = pair_distances(traj)
-    collisions += onsets(pairs < 2 * scenario.agent_radius)
+        min_mover_clearance = float(clear[:, :, list(scenario.mover_ids)].min())
+    min_distance = float(swept.separation.min())
+    came = arrival(scenario, traj)
     held = holds(traj)
     goal = path_position(scenario.path, traj.ticks * traj.dt)
     touches = contacts(scenario, traj)
@@ -204,7 +266,7 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCK
         dt=traj.dt,
         collisions=collisions,
         min_clearance=min_clearance,
-        min_interagent_distance=float(pairs.min()),
+        min_interagent_distance=min_distance,
         convergence_time=float(below[0] * traj.dt) if below.size else None,
         convergence_bound=bound,
         tolerance=scenario.tolerance,
@@ -222,4 +284,14 @@ def summarize(scenario: Scenario, traj: Trajectory, *, clock: Clock = Clock.LOCK
         min_mover_clearance=min_mover_clearance,
         agent_at_fault=at_fault,
         obstacle_at_fault=len(touches) - at_fault,
+        guard_margin=None if min_clearance is None else min_clearance - rho,
+        separation_margin=min_distance - scenario.separation,
+        contact_slack=swept.slack,
+        arrived=came.arrived,
+        arrival_time=came.time,
+        arrival_tolerance=came.tolerance,
+        not_arrived=came.cause,
+        slot_distance=came.slot_distance,
+        livelocks=came.livelocks,
+        longest_livelock=came.longest_livelock,
     )
