@@ -20,7 +20,9 @@ from shoal.world.trajectory import Trajectory
 KEYS = {
     "scenario", "agents", "steps", "dt", "collisions", "min_clearance",
     "min_interagent_distance", "convergence_time", "convergence_bound", "sigma",
-    "sigma_rounds", "sigma_disagreement", "omega_episodes",
+    "sigma_rounds", "sigma_disagreement", "omega_episodes", "guard_margin", "separation_margin",
+    "contact_slack", "arrived", "arrival_time", "arrival_tolerance", "not_arrived",
+    "slot_distance", "livelocks", "longest_livelock",
 }  # fmt: skip
 
 
@@ -103,6 +105,30 @@ def test_a_split_sigma_is_reported_not_hidden() -> None:
     split = render_summary({**base, "sigma_disagreement": 59})
     assert "different σ" not in agreed
     assert "4.000 (rounds 2); agents applied different σ in 59 ticks" in split
+
+
+def test_simulate_prints_arrival_and_the_theorems_margins() -> None:
+    result = CliRunner().invoke(main, ["simulate", "obstacles"])
+    assert result.exit_code == 0, result.output
+    rows = dict(line.split(None, 1) for line in result.output.splitlines())
+    assert rows["arrival"].startswith("yes at 59.81 s (leader home, formation within 0.200 m)")
+    assert rows["margins"].startswith("guard +0.04365 m, separation +2.965 m (the filter's")
+
+
+def test_a_run_that_did_not_arrive_says_why() -> None:
+    base = {"scenario": "x", "agents": 2, "steps": 10, "dt": 0.01, "collisions": 0,
+            "min_clearance": None, "min_interagent_distance": 1.0, "convergence_time": None,
+            "convergence_bound": 1.0, "tolerance": 0.2, "final_formation_error": 0.0,
+            "sigma": 1.0, "sigma_rounds": None, "omega_episodes": 0, "arrived": False,
+            "arrival_time": None, "arrival_tolerance": 0.2, "leader_shortfall": 21.6,
+            "slot_distance": 2.41, "livelocks": 2, "longest_livelock": 31.5}  # fmt: skip
+    trapped = render_summary({**base, "not_arrived": "leader trapped"})
+    assert "no: leader trapped (leader 21.60 m short; tolerance 0.200 m)" in trapped
+    stuck = render_summary({**base, "not_arrived": "deadlock"})
+    assert "no: deadlock (a follower 2.41 m off its slot; tolerance 0.200 m)" in stuck
+    assert "livelocks                 2 (longest 31.50 s)" in stuck
+    old = render_summary({k: v for k, v in base.items() if k != "arrived"})  # an older log
+    assert "arrival" not in old and "margins" not in old
 
 
 def test_run_on_an_unreachable_router_says_so_and_starts_nothing(tmp_path: Path) -> None:

@@ -43,6 +43,18 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("agreed σ", _sigma(summary)),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
+    if summary.get("separation_margin") is not None:  # a summary from before issue 29 has none
+        rows.insert(4, ("margins", _margins(summary)))
+    if summary.get("arrived") is not None:
+        rows.insert(rows.index(next(r for r in rows if r[0] == "convergence")) + 1,
+                    ("arrival", _arrival(summary)))  # fmt: skip
+    if summary.get("livelocks"):
+        rows.append(
+            (
+                "livelocks",
+                f"{summary['livelocks']} (longest {_fmt(summary['longest_livelock'], ' s', 2)})",
+            )
+        )
     if summary.get("min_mover_clearance") is not None:  # a run with moving obstacles
         rows.insert(
             3,
@@ -99,6 +111,30 @@ def render_summary(summary: dict[str, Any]) -> str:
 def json_safe(summary: dict[str, Any]) -> dict[str, Any]:
     """inf is not JSON: an unbounded figure becomes null."""
     return {k: (None if isinstance(v, float) and math.isinf(v) else v) for k, v in summary.items()}
+
+
+def _margins(summary: dict[str, Any]) -> str:
+    """The least margins against the safety theorem's bounds: clearance − ρ, distance − 2R."""
+    guard = summary.get("guard_margin")
+    text = f"guard {guard:+.4g} m, " if guard is not None else "guard — (no obstacles), "
+    text += f"separation {summary['separation_margin']:+.4g} m"
+    if summary.get("safety", "filter") != "filter":
+        return f"{text} (no filter: no bound)"
+    return f"{text} (the filter's theorem: ≥ −{summary.get('contact_slack', 0.0):.1e} m)"
+
+
+def _arrival(summary: dict[str, Any]) -> str:
+    """Whether and when the run arrived (world/arrival.py), or why not."""
+    tol = _fmt(summary.get("arrival_tolerance"), " m")
+    if summary["arrived"]:
+        return (
+            f"yes at {_fmt(summary['arrival_time'], ' s', 2)} (leader home, formation within {tol})"
+        )
+    cause = summary.get("not_arrived")
+    leader = f"leader {_fmt(summary.get('leader_shortfall'), ' m', 2)} short"
+    follower = f"a follower {_fmt(summary.get('slot_distance'), ' m', 2)} off its slot"
+    detail = {"leader trapped": leader, "out of time": f"{leader}, {follower}"}
+    return f"no: {cause} ({detail.get(str(cause), follower)}; tolerance {tol})"
 
 
 def _sigma(summary: dict[str, Any]) -> str:
