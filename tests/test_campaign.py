@@ -28,7 +28,8 @@ from shoal.tools.campaign.fields import (
     make_field,
     needed_contraction,
 )
-from shoal.tools.campaign.runner import Outcome, judge, render, report
+from shoal.tools.campaign.report import render, report
+from shoal.tools.campaign.runner import Outcome, judge
 from shoal.tools.cli import main
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
@@ -114,6 +115,7 @@ def test_inside_fields_with_several_obstacles_never_collide_with_the_filter() ->
         assert not outcome.collided
         assert outcome.min_clearance >= OBSTACLES.control.safety_margin - 1e-9
         assert outcome.min_interagent_distance >= 2 * OBSTACLES.control.safety_margin - 1e-9
+        assert outcome.arrived and outcome.not_arrived is None and outcome.arrival_time
 
 
 def test_the_same_field_collides_with_algorithm_2_alone() -> None:
@@ -140,6 +142,9 @@ def test_a_small_campaign_is_safe_inside_and_its_failures_replay(tmp_path: Path)
     assert inside["fields"] == 10 and inside["collided"] == 0
     assert inside["min_clearance"]["min"] >= 0.2 - 1e-9  # ρ: the filter's guard
     assert inside["converged_within_bound"] == inside["converged"] == 10
+    assert inside["arrived"] == 10 and inside["arrival_rate"] == 1.0 and not inside["not_arrived"]
+    slack = 1900 * 4e-12  # contact_slack of a 1,900-tick field
+    assert inside["guard_margin"] >= -slack and inside["separation_margin"] >= -slack
     paper = {f"{m}/paper" for m in ("inside", *BREACHES)}
     assert set(rep["sets"]) == {"inside", *BREACHES} | paper
     assert rep["fields"] == 2 * (10 + len(BREACHES)) and not rep["errors"]
@@ -247,19 +252,38 @@ def test_ctrl_c_stops_a_campaign_at_once_and_leaves_no_worker() -> None:
 def test_the_report_lists_every_safe_field_that_stalled_or_did_not_settle() -> None:
     ok = Outcome(
         "inside", 0, "f-0", 2, 0, 0, 0.3, 0.5, 1.0, 2.0, 0.05, 0.2, 1.0, False, 1, 0, 1.0,
-        source="yaml",
+        source="yaml", arrival_time=12.0,
     )  # fmt: skip
     stalled = dataclasses.replace(ok, seed=1, stalls=2, longest_stall=1.5)
     unsettled = dataclasses.replace(ok, seed=2, final_formation_error=0.5)
     short = dataclasses.replace(ok, seed=3, leader_reached=False)
     crashed = dataclasses.replace(unsettled, seed=4, obstacle_collisions=1)  # a failure instead
-    rep = report([ok, stalled, unsettled, short, crashed], wall=1.0, jobs=1)
-    assert [g["seed"] for g in rep["lagging"]] == [1, 2, 3]
+    trapped = dataclasses.replace(
+        ok, seed=5, arrived=False, not_arrived="leader trapped", leader_shortfall=21.6,
+        leader_reached=False, arrival_time=None,
+    )  # fmt: skip
+    stuck = dataclasses.replace(
+        ok, seed=6, arrived=False, not_arrived="deadlock", slot_distance=2.41, arrival_time=None
+    )
+    circling = dataclasses.replace(ok, seed=7, livelocks=1, longest_livelock=14.5)
+    rep = report(
+        [ok, stalled, unsettled, short, crashed, trapped, stuck, circling], wall=1.0, jobs=1
+    )
+    assert [g["seed"] for g in rep["lagging"]] == [1, 2, 3, 5, 6, 7]
     assert [f["seed"] for f in rep["failures"]] == [4]
     assert rep["lagging"][0]["longest_stall"] == 1.5 and rep["lagging"][0]["settled"]
     assert not rep["lagging"][1]["settled"] and not rep["lagging"][2]["leader_reached"]
+    assert rep["lagging"][3]["not_arrived"] == "leader trapped"
+    inside = rep["sets"]["inside"]
+    assert inside["arrived"] == 6 and inside["arrival_rate"] == 6 / 8
+    assert inside["not_arrived"] == {"leader trapped": 1, "deadlock": 1}
+    assert inside["livelocked_fields"] == 1 and inside["longest_livelock"] == 14.5
     text = render(rep)
-    assert "3 safe fields to look at" in text
+    assert "6 safe fields to look at" in text
     assert "seed      1: 2 stalls, longest 1.50 s" in text
     assert "seed      2: not settled (error 0.500 m)" in text
     assert "seed      3: leader short of its goal" in text
+    assert "seed      5: not arrived: leader trapped (leader 21.60 m short)" in text
+    assert "seed      6: not arrived: deadlock (a follower 2.41 m off its slot)" in text
+    assert "seed      7: 1 livelocks, longest 14.50 s" in text
+    assert "6/8 (75.0 %)" in text

@@ -25,12 +25,10 @@ from shoal.tools.campaign.people import (
     render_people,
     run_people_task,
 )
+from shoal.tools.campaign.report import render, report
 from shoal.tools.campaign.runner import (
     Outcome,
-    lagged,
     measure,
-    render,
-    report,
     run_campaign,
     run_task,
     saved_stem,
@@ -233,7 +231,7 @@ def campaign(
         kept = {
             p.stem: str(p)
             for p in write_failures(
-                outcomes, save_lagging, which=lambda o: lagged(o) and not o.collided
+                outcomes, save_lagging, which=lambda o: o.lagged and not o.collided
             )
         }
         for field in rep["lagging"]:

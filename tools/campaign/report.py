@@ -1,0 +1,221 @@
+"""The campaign's report: per set of fields, then every field that collided or lagged.
+
+One JSON-able dict (:func:`report`) and the text a person reads (:func:`render`). Distances in m,
+times in s; a set is the inside fields, or the fields breaking one assumption, each with the
+filter or (``SET/paper``) without.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from shoal.tools.campaign.fields import BREACHES, REFUSED
+from shoal.tools.campaign.runner import Outcome
+from shoal.world.arrival import CAUSES
+
+
+def _quantiles(values: Iterable[float]) -> dict[str, float | None]:
+    v = np.asarray([x for x in values if math.isfinite(x)])
+    if not v.size:
+        return {"min": None, "p01": None, "p05": None, "p50": None}
+    q = np.quantile(v, [0.01, 0.05, 0.5])
+    return {"min": float(v.min()), "p01": float(q[0]), "p05": float(q[1]), "p50": float(q[2])}
+
+
+def _least(values: Iterable[float]) -> float | None:
+    finite = [x for x in values if math.isfinite(x)]
+    return min(finite) if finite else None
+
+
+def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
+    """The figures of one set of fields (all inside, or all breaking the same thing)."""
+    ran = [o for o in outcomes if o.error is None]
+    bounded = [o for o in ran if math.isfinite(o.convergence_bound) and o.convergence_bound > 0]
+    ratios = [
+        o.convergence_time / o.convergence_bound for o in bounded if o.convergence_time is not None
+    ]
+    causes = Counter(o.not_arrived for o in ran if not o.arrived)
+    return {
+        "fields": len(ran),
+        "not_drawn": len(outcomes) - len(ran),
+        "collided": sum(o.collided for o in ran),
+        "obstacle_collided": sum(o.obstacle_collisions > 0 for o in ran),
+        "agent_collided": sum(o.agent_collisions > 0 for o in ran),
+        "collisions": sum(o.obstacle_collisions + o.agent_collisions for o in ran),
+        "min_clearance": _quantiles(o.min_clearance for o in ran),
+        "min_interagent_distance": _quantiles(o.min_interagent_distance for o in ran),
+        "guard_margin": _least(o.guard_margin for o in ran),
+        "separation_margin": _least(o.separation_margin for o in ran),
+        "converged": sum(o.convergence_time is not None for o in ran),
+        "unbounded": len(ran) - len(bounded),  # Theorem 1 gives no bound (|f| ≥ β)
+        "converged_within_bound": sum(r <= 1.0 for r in ratios),
+        "max_time_over_bound": max(ratios) if ratios else None,
+        "settled_at_end": sum(o.final_formation_error <= o.tolerance for o in ran),
+        "contracted": sum(o.sigma > 1.0 for o in ran),
+        "a3_broken_by_contraction": sum(o.a3_contracted for o in ran),
+        "a2_broken_in_run": sum(o.assumption2_violations > 0 for o in ran),
+        "omega_episodes": sum(o.omega_episodes for o in ran),
+        "filter_activity": float(np.mean([o.filter_activity for o in ran])) if ran else 0.0,
+        "stalled_fields": sum(o.stalls > 0 for o in ran),
+        "stalls": sum(o.stalls for o in ran),
+        "longest_stall": max((o.longest_stall for o in ran), default=0.0),
+        "leader_reached": sum(o.leader_reached for o in ran),
+        "arrived": sum(o.arrived for o in ran),
+        "arrival_rate": sum(o.arrived for o in ran) / len(ran) if ran else None,
+        "not_arrived": {c: causes[c] for c in CAUSES if causes[c]},
+        "livelocked_fields": sum(o.livelocks > 0 for o in ran),
+        "longest_livelock": max((o.longest_livelock for o in ran), default=0.0),
+        "cpu_s": round(sum(o.seconds for o in ran), 2),
+    }
+
+
+def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any]:
+    """The campaign as one JSON-able dict: per set, then every field that collided, then every
+    safe one that lagged (:attr:`Outcome.lagged`).
+
+    ``wall`` s for the whole campaign on ``jobs`` processes; each set's ``cpu_s`` is the CPU
+    time its fields took (drawing, simulating, measuring), which a loaded machine inflates less.
+    """
+    sets: dict[str, Any] = {}
+    for mode, safety in itertools.product(("inside", *BREACHES), ("filter", "paper")):
+        name = mode if safety == "filter" else f"{mode}/paper"
+        chosen = [o for o in outcomes if o.set_name == name]
+        if chosen:
+            sets[name] = summarize_set(chosen)
+            sets[name]["safety"] = safety
+            if mode != "inside":
+                b = BREACHES[mode]
+                sets[name]["breaks"] = b.assumption
+                sets[name]["static"] = b.static
+    failures = [
+        {"set": o.set_name, "seed": o.seed, "name": o.name, "obstacle_collisions":
+         o.obstacle_collisions, "agent_collisions": o.agent_collisions,
+         "min_clearance": o.min_clearance, "min_interagent_distance": o.min_interagent_distance,
+         "rerun": "campaign --rerun" if o.mode in REFUSED else "simulate", "safety": o.safety}
+        for o in outcomes if o.error is None and o.collided
+    ]  # fmt: skip
+    lagging = [
+        {"set": o.set_name, "seed": o.seed, "name": o.name, "arrived": o.arrived,
+         "not_arrived": o.not_arrived, "arrival_time": o.arrival_time,
+         "leader_shortfall": o.leader_shortfall, "slot_distance": o.slot_distance,
+         "stalls": o.stalls, "longest_stall": o.longest_stall, "livelocks": o.livelocks,
+         "longest_livelock": o.longest_livelock,
+         "final_formation_error": o.final_formation_error, "tolerance": o.tolerance,
+         "settled": o.final_formation_error <= o.tolerance, "leader_reached": o.leader_reached,
+         "safety": o.safety}
+        for o in outcomes if o.error is None and not o.collided and o.lagged
+    ]  # fmt: skip
+    errors = [{"set": o.set_name, "seed": o.seed, "error": o.error} for o in outcomes if o.error]
+    return {
+        "fields": len(outcomes),
+        "jobs": jobs,
+        "wall_s": round(wall, 2),
+        "fields_per_s": round(len(outcomes) / wall, 2) if wall > 0 else None,
+        "cpu_s_per_field": round(sum(o.seconds for o in outcomes) / max(1, len(outcomes)), 3),
+        "sets": sets,
+        "failures": failures,
+        "lagging": lagging,
+        "errors": errors,
+    }
+
+
+# Lagging fields listed in the text report; --json lists every one.
+LAGGING_SHOWN = 20
+
+
+def _num(value: Any, digits: int = 3) -> str:
+    return "—" if value is None else f"{value:.{digits}f}"
+
+
+def _rate(part: int, whole: int) -> str:
+    return f"{part}/{whole} ({100 * part / whole:.1f} %)" if whole else "—"
+
+
+def render(rep: dict[str, Any]) -> str:
+    """Three tables a person reads: safety, convergence, liveness; then the fields to look at."""
+    safety = [
+        f"{'set':<12} {'fields':>6} {'collided':>8} {'obstacle':>8} {'agent':>5}   "
+        f"{'clearance min':>13} {'p01':>7} {'p05':>7} {'p50':>7}   {'separation min':>14}   "
+        f"{'guard margin':>12} {'sep. margin':>11}"
+    ]
+    runs = [
+        f"{'set':<12} {'converged':>9} {'≤ bound':>7} {'max t/bound':>11} {'settled':>7}   "
+        f"{'σ > 1':>5} {'A3 by σ':>7} {'A2 in run':>9} {'Ω episodes':>10}"
+    ]
+    liveness = [
+        f"{'set':<12} {'filter active':>13} {'stalled':>7} {'stalls':>6} {'longest':>8}   "
+        f"{'livelocked':>10} {'longest':>8}   {'leader at goal':>14}   {'arrived':>18}"
+    ]
+    for mode, s in rep["sets"].items():
+        clr = s["min_clearance"]
+        safety.append(
+            f"{mode:<12} {s['fields']:>6} {s['collided']:>8} {s['obstacle_collided']:>8} "
+            f"{s['agent_collided']:>5}   {_num(clr['min']):>13} {_num(clr['p01']):>7} "
+            f"{_num(clr['p05']):>7} {_num(clr['p50']):>7}   "
+            f"{_num(s['min_interagent_distance']['min']):>14}   "
+            f"{_num(s['guard_margin'], 4):>12} {_num(s['separation_margin'], 4):>11}"
+        )
+        runs.append(
+            f"{mode:<12} {s['converged']:>9} {s['converged_within_bound']:>7} "
+            f"{_num(s['max_time_over_bound']):>11} {s['settled_at_end']:>7}   "
+            f"{s['contracted']:>5} {s['a3_broken_by_contraction']:>7} "
+            f"{s['a2_broken_in_run']:>9} {s['omega_episodes']:>10}"
+        )
+        liveness.append(
+            f"{mode:<12} {100 * s['filter_activity']:>12.2f}% {s['stalled_fields']:>7} "
+            f"{s['stalls']:>6} {s['longest_stall']:>7.2f}s   {s['livelocked_fields']:>10} "
+            f"{s['longest_livelock']:>7.2f}s   {s['leader_reached']:>14}   "
+            f"{_rate(s['arrived'], s['fields']):>18}"
+        )
+    lines = [*safety, "", *runs, "", *liveness, ""]
+    for mode, s in rep["sets"].items():
+        if mode != "inside" and s["safety"] == "filter":
+            lines.append(f"{mode:<12} breaks {s['breaks']}: {BREACHES[mode].what}")
+    lines.append(
+        "margins: least clearance − ρ and least separation − 2R over whole steps (≥ 0 under "
+        "the filter's theorem); settled: error ≤ tolerance at the end; stalled: fields where an "
+        "agent was held by the filter > 0.5 s; livelocked: moving without getting closer to its "
+        "slot; arrived: leader home and formation in place to the end (docs/campaign.md); "
+        "/paper: the same fields, filter off"
+    )
+    lines.append(
+        f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "
+        f"({rep['fields_per_s']} fields/s; {rep['cpu_s_per_field']} CPU s per field)"
+    )
+    if rep["lagging"]:
+        lines.append(
+            f"{len(rep['lagging'])} safe fields to look at (--save-lagging DIR keeps them):"
+        )
+    for g in rep["lagging"][:LAGGING_SHOWN]:
+        lines.append(f"  {g['set']:<12} seed {g['seed']:>6}: {'; '.join(_lag(g))}")
+    if len(rep["lagging"]) > LAGGING_SHOWN:
+        lines.append(f"  … and {len(rep['lagging']) - LAGGING_SHOWN} more (--json lists all)")
+    for e in rep["errors"]:
+        lines.append(f"not drawn: {e['set']} seed {e['seed']}: {e['error']}")
+    return "\n".join(lines)
+
+
+def _lag(g: dict[str, Any]) -> list[str]:
+    """What a lagging field went through, most telling first."""
+    what = []
+    if not g["arrived"]:
+        cause = g["not_arrived"]
+        leader = f"leader {g['leader_shortfall']:.2f} m short"
+        follower = f"a follower {g['slot_distance']:.2f} m off its slot"
+        shown = {"leader trapped": leader, "out of time": f"{leader}, {follower}"}
+        what.append(f"not arrived: {cause} ({shown.get(cause, follower)})")
+    if g["livelocks"]:
+        what.append(f"{g['livelocks']} livelocks, longest {g['longest_livelock']:.2f} s")
+    if g["stalls"]:
+        what.append(f"{g['stalls']} stalls, longest {g['longest_stall']:.2f} s")
+    if not g["settled"]:
+        what.append(f"not settled (error {g['final_formation_error']:.3f} m)")
+    if not g["leader_reached"] and g["arrived"]:
+        what.append("leader short of its goal")
+    return what
