@@ -23,7 +23,14 @@ from matplotlib.patches import Circle
 from shoal.bus.geometry import FloatArray
 from shoal.bus.path import path_positions
 from shoal.world.contacts import contacts
-from shoal.world.metrics import Summary, clearances, formation_errors, pair_distances, summarize
+from shoal.world.metrics import (
+    Summary,
+    Sweep,
+    clearances,
+    formation_errors,
+    pair_distances,
+    summarize,
+)
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
 
@@ -205,18 +212,21 @@ def _draw_movers(ax: Axes, view: RunView, axes: tuple[int, int], *, snapshots: b
 
 
 def _collisions(view: RunView) -> list[tuple[int, int, str]]:
-    """(position index, agent column, what) of every collision's first moment: an agent closer
+    """(position index, agent column, what) of every collision's first moment, the start of the
+    first step in which it happened (the summary's count, world/metrics.py): an agent closer
     than its radius to a standing obstacle's edge, two agents closer than twice it (both
     marked), or an agent that moved into a moving obstacle (world/contacts.py)."""
     sc, traj = view.scenario, view.traj
+    swept = Sweep.of(sc, traj)
     out: list[tuple[int, int, str]] = []
     if sc.standing_ids:
-        clear = clearances(sc, traj)[:, :, list(sc.standing_ids)]
-        inside = np.asarray((clear < sc.agent_radius).any(axis=2), dtype=np.bool_)
+        inside = np.asarray(
+            (swept.clearance < sc.agent_radius - swept.slack).any(axis=2), dtype=np.bool_
+        )
         for i in range(sc.n):
             out += [(a, i, "obstacle") for a, _ in _runs(inside[:, i])]
     out += [(c.start, c.agent - 1, "mover") for c in contacts(sc, traj) if c.agent_at_fault]
-    close = np.asarray(pair_distances(traj) < 2 * sc.agent_radius, dtype=np.bool_)
+    close = np.asarray(swept.separation < 2 * sc.agent_radius - swept.slack, dtype=np.bool_)
     for col, (i, j) in enumerate(itertools.combinations(range(sc.n), 2)):
         for a, _ in _runs(close[:, col]):
             out += [(a, i, "agent"), (a, j, "agent")]
@@ -263,8 +273,12 @@ def distances(view: RunView) -> Figure:
     """Fig. 2b / 3b: distance between every pair of neighbours over time against the collision
     distance (twice the agent radius) and the filter's separation, and (with obstacles) each
     agent's clearance to the nearest obstacle's edge against the agent radius (collision) and
-    the guard ρ; the axes reach below zero when something went through something."""
+    the guard ρ; the axes reach below zero when something went through something. The lines
+    are samples at ticks; the minima in the titles (and the axes' reach) are the least over
+    whole steps, as the summary reports them."""
     sc, t = view.scenario, view.times
+    swept = Sweep.of(sc, view.traj)
+    least = float(swept.separation.min())
     panels = 2 if sc.obstacles else 1
     fig = _figure(9.0, 3.4 * panels)
     axes = fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0]
@@ -292,11 +306,12 @@ def distances(view: RunView) -> Figure:
             sc.separation, color="r", lw=0.8, ls=":", label=f"separation {sc.separation:g} m"
         )
     ax.set_ylabel("inter-agent distance (m)")
-    ax.set_ylim(bottom=min(0.0, float(dist.min())))
+    ax.set_ylim(bottom=min(0.0, least))
     ax.legend(fontsize="small", ncol=4, loc="best")
-    ax.set_title(f"{view.label}: distances between neighbours (min {dist.min():.3f} m)")
+    ax.set_title(f"{view.label}: distances between neighbours (min {least:.3f} m)")
     if sc.obstacles:
         clear = clearances(sc, view.traj).min(axis=2)
+        lowest = min(float(clear.min()), float(swept.clearance.min(initial=np.inf)))
         ax = axes[1]
         for i in range(sc.n):
             ax.plot(t, clear[:, i], color=colour(i), lw=1.0, label=agent_name(i))
@@ -305,9 +320,9 @@ def distances(view: RunView) -> Figure:
         ax.axhline(rho, color="r", lw=0.8, ls=":", label=f"guard ρ = {rho:g} m")
         ax.set_ylabel("clearance to nearest obstacle (m)")
         ax.set_yscale("symlog", linthresh=1.0)
-        ax.set_ylim(bottom=min(0.0, float(clear.min())))  # a collision shows below zero
+        ax.set_ylim(bottom=min(0.0, lowest))  # a collision shows below zero
         ax.legend(fontsize="small", ncol=3, loc="best")
-        ax.set_title(f"clearance to obstacles (min {clear.min():.3f} m)")
+        ax.set_title(f"clearance to obstacles (min {lowest:.3f} m)")
     for ax in axes:
         ax.grid(True, lw=0.3)
     axes[-1].set_xlabel("time (s)")
