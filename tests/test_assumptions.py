@@ -27,9 +27,12 @@ def with_(data: dict[str, Any], **fields: Any) -> dict[str, Any]:
     return {**copy.deepcopy(data), **fields}
 
 
-def walker(centre: list[float], to: list[float], speed: float = 1.0) -> dict[str, Any]:
-    return {"centre": centre, "radius": 0.3,
-            "moves": {"kind": "route", "waypoints": [to], "speed": speed}}  # fmt: skip
+def walker(
+    centre: list[float], to: list[float], speed: float = 1.0, loop: bool = False
+) -> dict[str, Any]:
+    """A moving obstacle of radius 0.3 m walking from ``centre`` to ``to`` (and back: ``loop``)."""
+    moves = {"kind": "route", "waypoints": [to], "speed": speed, "loop": loop}
+    return {"centre": centre, "radius": 0.3, "moves": moves}
 
 
 # -- obstacles are named by their place in the list ---------------------------------------------
@@ -40,3 +43,77 @@ def test_a_standing_obstacle_after_a_moving_one_is_named_by_its_own_index() -> N
     message = r"^agents\[1\]\.initial: starts inside obstacles\[1\]$"
     with pytest.raises(ScenarioError, match=message):
         scenario_from_dict(data)
+
+
+# -- every demanded shape keeps its slots the separation apart ----------------------------------
+
+
+def grid(scale: float, **extra: Any) -> dict[str, Any]:
+    """Issue 29's 16 agents on a grid 0.5 m apart, the leader at a corner, shrunk by ``scale``
+    at 2 s: 0.5 / 2 = 0.25 m < 0.4 m stood gridlocked for 45 s before it was refused."""
+    cells = [(r, c) for r in range(4) for c in range(4)]
+    ids = {cell: k + 1 for k, cell in enumerate(cells)}
+    edges = [[ids[r, c], ids[r + dr, c + dc]] for r, c in cells for dr, dc in ((0, 1), (1, 0))
+             if (r + dr, c + dc) in ids]  # fmt: skip
+    shape = {"graph": {"edges": edges}, "reshape": [{"at": 2.0, "scale": scale}],
+             "agents": [{"offset": [-0.5 * c, 0.5 * r]} for r, c in cells]}  # fmt: skip
+    return with_(base(), **(shape | extra))
+
+
+SHRUNK = "agents 1 and 2 would be meant to be {} m apart, closer than the separation 0.4 m"
+
+
+@pytest.mark.parametrize(("scale", "gap"), [(2.0, "0.25"), (1.26, "0.397")])
+def test_a_reshape_into_slots_closer_than_the_separation_is_refused(scale: float, gap: str) -> None:
+    message = rf"^reshape\[0\]\.scale: {SHRUNK.format(gap)} the safety filter keeps; the " + (
+        "formation could never take this shape$"
+    )
+    with pytest.raises(ScenarioError, match=message) as info:
+        scenario_from_dict(grid(scale))
+    assert info.value.field == "reshape[0].scale"
+
+
+def test_a_later_reshape_is_checked_too_and_named() -> None:
+    data = grid(1.0)
+    data["reshape"] = [{"at": 2.0, "scale": 1.2, "rotate": 1.0}, {"at": 4.0, "scale": 2.0}]
+    with pytest.raises(ScenarioError, match=r"^reshape\[1\]\.scale: agents 1 and 2 would be"):
+        scenario_from_dict(data)
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        grid(1.25),  # 0.5 / 1.25 = 0.4: exactly the separation
+        grid(2.0, control={"separation": 0.25}),
+        grid(2.0, control={"safety": "paper"}),  # nothing keeps agents apart without the filter
+        grid(2.0, reshape=[{"at": 2.0, "scale": 2.0}, {"at": 2.0, "scale": 1.0}]),  # replaced
+        grid(2.0, reshape=[{"at": 25.0, "scale": 2.0}]),  # at the run's end: never applied
+    ],
+    ids=["at-the-separation", "smaller-separation", "paper", "replaced", "at-the-end"],
+)
+def test_a_reshape_no_tick_demands_closer_than_the_separation_loads(data: dict[str, Any]) -> None:
+    assert scenario_from_dict(data).n == 16
+
+
+def close_offsets(gap: float, **extra: Any) -> dict[str, Any]:
+    """Agents 3 and 4 meant to be ``gap`` m apart, starting 1 m apart."""
+    agents = [{"offset": [0, 0]}, {"offset": [-3, 3]}, {"offset": [0, -3]},
+              {"offset": [gap, -3], "initial": [1, -3]}]  # fmt: skip
+    return with_(base(), agents=agents, **extra)
+
+
+def test_offsets_closer_than_the_separation_are_refused() -> None:
+    message = (
+        r"^agents\[3\]\.offset: agents 3 and 4 are meant to be 0\.39 m apart, closer than "
+        r"the separation 0\.4 m the safety filter keeps; the formation could never take"
+    )
+    with pytest.raises(ScenarioError, match=message):
+        scenario_from_dict(close_offsets(0.39))
+    assert scenario_from_dict(close_offsets(0.4)).n == 4
+
+
+def test_offsets_a_reshape_replaces_from_the_start_are_not_demanded() -> None:
+    """Offsets written in other units and scaled at tick 0: only the scaled shape is asked for."""
+    assert scenario_from_dict(close_offsets(0.3, reshape=[{"at": 0.0, "scale": 0.5}])).n == 4
+    with pytest.raises(ScenarioError, match=r"^agents\[3\]\.offset: agents 3 and 4 are meant"):
+        scenario_from_dict(close_offsets(0.3, reshape=[{"at": 0.01, "scale": 0.5}]))

@@ -17,11 +17,16 @@ Assumptions 2 and 3 only matter when there are obstacles to evade and are skippe
 Moving obstacles (docs/people.md) are left to the safety filter: the assumptions above are about
 the standing ones; the filter needs u_max·dt more sensing range, (D) above with
 d − r_max − ρ − u_max·dt, and every agent to start outside every guard circle.
+
+Fields the formation can never finish, with ``control.safety: filter`` (the filter keeps every
+pair of agents 2R apart at all times, so slots closer than that can never be filled together):
+every shape demanded, the offsets and each applied reshape, keeps its slots 2R apart.
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 import warnings
 
 import numpy as np
@@ -39,6 +44,7 @@ def check_assumptions(s: Scenario) -> None:
     _obstacles_apart(s)
     _assumption1(s)
     _safety(s)
+    _slots_apart(s)
     if s.standing_ids:
         _assumption2(s)
         _assumption3(s)
@@ -231,6 +237,52 @@ def _starts_clear(s: Scenario) -> None:
                 f"agents[{i}].initial",
                 f"starts {dist[o]:.3g} m from the edge of {_named(s, o)}, inside its guard "
                 f"circle (ρ = {keep} m): the safety filter needs every agent to start outside",
+            )
+
+
+def _shapes(s: Scenario) -> list[tuple[int | None, float, float]]:
+    """Every shape the formation is asked to take, in order, as (index in ``reshape``, σ, θ);
+    index None: the offsets as given. A reshape counts when a tick of the run applies it: not
+    one that a later entry at the same tick replaces, nor one at the run's very end (ticks run
+    0 .. steps − 1); the offsets as given count unless a reshape applies from tick 0."""
+    r = s.reshapes
+    applied = [
+        (k, x.scale, x.rotate)
+        for k, x in enumerate(r)
+        if x.tick < s.steps and (k + 1 == len(r) or r[k + 1].tick != x.tick)
+    ]
+    given = [] if applied and r[applied[0][0]].tick == 0 else [(None, 1.0, 0.0)]
+    return [*given, *applied]
+
+
+def _closest_pair(points: FloatArray) -> tuple[float, int, int]:
+    """The least distance between two of ``points`` (k, dim) m, and the first such pair (i < j).
+    Row by row: O(k) memory for a swarm of thousands."""
+    best, pair = math.inf, (0, 1)
+    for i in range(len(points) - 1):
+        dist = np.linalg.norm(points[i + 1 :] - points[i], axis=1)
+        k = int(np.argmin(dist))
+        if dist[k] < best:
+            best, pair = float(dist[k]), (i, i + 1 + k)
+    return best, *pair
+
+
+def _slots_apart(s: Scenario) -> None:
+    """With the safety filter, every demanded shape keeps its slots the separation 2R apart:
+    the filter never lets two agents closer, so such a shape could never be taken (a 4×4 grid
+    0.5 m apart shrunk ×2 stood gridlocked for the rest of its run). A rotation keeps every
+    distance, so the closest pair of offsets is the closest pair of every shape."""
+    if s.control.safety != "filter" or s.n < 2:
+        return
+    gap, i, j = _closest_pair(s.offsets)
+    sep = s.separation
+    for k, scale, _theta in _shapes(s):
+        if gap / scale < sep:  # Python floats: a tiny σ overflows to inf, never an error
+            raise ScenarioError(
+                f"agents[{j}].offset" if k is None else f"reshape[{k}].scale",
+                f"agents {i + 1} and {j + 1} {'are' if k is None else 'would be'} meant to be "
+                f"{gap / scale:.3g} m apart, closer than the separation {sep:.3g} m the safety "
+                "filter keeps; the formation could never take this shape",
             )
 
 
