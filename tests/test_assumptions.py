@@ -117,3 +117,63 @@ def test_offsets_a_reshape_replaces_from_the_start_are_not_demanded() -> None:
     assert scenario_from_dict(close_offsets(0.3, reshape=[{"at": 0.0, "scale": 0.5}])).n == 4
     with pytest.raises(ScenarioError, match=r"^agents\[3\]\.offset: agents 3 and 4 are meant"):
         scenario_from_dict(close_offsets(0.3, reshape=[{"at": 0.01, "scale": 0.5}]))
+
+
+# -- every final slot can be reached -----------------------------------------------------------
+
+
+def post(centre: list[float], radius: float = 1.0, **extra: Any) -> dict[str, Any]:
+    """base() with one standing obstacle."""
+    return with_(base(), obstacles=[{"centre": centre, "radius": radius}], **extra)
+
+
+def test_a_final_slot_inside_a_guard_circle_is_refused() -> None:
+    message = (
+        r"^agents\[1\]\.offset: the final slot of agent 2 lies 0\.1 m from the edge of "
+        r"obstacles\[0\], inside its guard circle ρ = 0\.2 m: the safety filter keeps the "
+        r"agent out of it, so the formation can never arrive in its final shape$"
+    )
+    with pytest.raises(ScenarioError, match=message) as info:
+        scenario_from_dict(post([17, 4.1]))  # agent 2's slot is (17, 3)
+    assert info.value.field == "agents[1].offset"
+    with pytest.raises(ScenarioError, match=r"^agents\[1\]\.offset: .* agent 2 lies -0\.3 m"):
+        scenario_from_dict(post([17, 3.2], 0.5))  # in the obstacle itself
+
+
+RHO = {"control": {"safety_margin": 0.25}}  # ρ and the distances below exact in binary
+
+
+@pytest.mark.parametrize(("y", "loads"), [(3.75, True), (3.76, True), (3.74, False)])
+def test_a_final_slot_on_the_guard_circle_loads_and_one_inside_it_does_not(
+    y: float, loads: bool
+) -> None:
+    data = post([17, y], 0.5, **RHO)  # the slot (17, 3) is y - 3.5 from the guard circle
+    if loads:
+        assert scenario_from_dict(data).n == 4
+    else:
+        with pytest.raises(ScenarioError, match=r"agent 2 lies 0\.24 m .* guard circle ρ = 0\.25"):
+            scenario_from_dict(data)
+
+
+def test_the_last_reshape_places_the_final_slots() -> None:
+    """Turned by π/2 at 10 s, agent 2's slot (17, 3) moves to (17, -3); shrunk ×2, to
+    (18.5, 1.5)."""
+    turned = {"reshape": [{"at": 10.0, "rotate": 1.5707963267948966}]}
+    assert scenario_from_dict(post([17, 4.1], **turned)).n == 4
+    with pytest.raises(ScenarioError, match=r"^agents\[1\]\.offset: the final slot of agent 2"):
+        scenario_from_dict(post([17, -4.1], **turned))
+    with pytest.raises(ScenarioError, match=r"^agents\[1\]\.offset: the final slot of agent 2"):
+        scenario_from_dict(post([18.5, 2.6], reshape=[{"at": 10.0, "scale": 2.0}]))
+
+
+def test_on_a_sinusoid_the_final_slot_is_where_the_path_is_at_the_last_tick() -> None:
+    """The leader's path is at (20, 0) at t = 20 s: the run's last tick for 20.01 s of run."""
+    wave = {"sinusoid": {"start": [0, 0], "direction": [1, 0], "speed": 1.0, "amplitude": 2.0,
+                         "period": 10.0}}  # fmt: skip
+    with pytest.raises(ScenarioError, match=r"^agents\[1\]\.offset: the final slot of agent 2 "):
+        scenario_from_dict(post([17, 4.1], leader=wave, duration=20.01))
+    assert scenario_from_dict(post([17, 4.1], leader=wave, duration=25.0)).n == 4
+
+
+def test_without_the_filter_a_final_slot_in_a_guard_loads() -> None:
+    assert scenario_from_dict(post([17, 4.1], control={"safety": "paper"})).n == 4

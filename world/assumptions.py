@@ -19,8 +19,11 @@ the standing ones; the filter needs u_max·dt more sensing range, (D) above with
 d − r_max − ρ − u_max·dt, and every agent to start outside every guard circle.
 
 Fields the formation can never finish, with ``control.safety: filter`` (the filter keeps every
-pair of agents 2R apart at all times, so slots closer than that can never be filled together):
-every shape demanded, the offsets and each applied reshape, keeps its slots 2R apart.
+agent's centre outside every guard circle r_j + ρ and every pair of agents 2R apart, at all
+times, so a slot inside either can never be filled; ρ ≥ agent_radius already holds the body):
+every shape demanded, the offsets and each applied reshape, keeps its slots 2R apart; every
+follower's final slot (the leader's last waypoint, or where its sinusoid is at the last tick,
+plus R(θ)δ_i/σ of the last reshape) lies outside every standing obstacle's guard circle.
 """
 
 from __future__ import annotations
@@ -31,8 +34,8 @@ import warnings
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, norm, segment_distance
-from shoal.bus.path import path_positions, peak_speed
+from shoal.bus.geometry import FloatArray, norm, segment_distance, shaped
+from shoal.bus.path import path_position, path_positions, peak_speed
 from shoal.bus.types import Waypoints
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
 from shoal.world.graph import communication_graph, hop_distances, reached_from_leader
@@ -51,6 +54,7 @@ def check_assumptions(s: Scenario) -> None:
         _leader_path(s)
         _trigger_reach(s)
         _starts_clear(s)
+        _final_slots_clear(s)
     if s.mover_ids:
         _movers(s)
     _beta(s)
@@ -284,6 +288,45 @@ def _slots_apart(s: Scenario) -> None:
                 f"{gap / scale:.3g} m apart, closer than the separation {sep:.3g} m the safety "
                 "filter keeps; the formation could never take this shape",
             )
+
+
+def _final_slots(s: Scenario) -> FloatArray:
+    """(n, dim) where every agent should end, m: the leader's last waypoint, or on a sinusoid
+    where the path is at the last tick, plus R(θ)δ_i/σ of the last shape demanded."""
+    _k, scale, theta = _shapes(s)[-1]
+    if isinstance(s.path, Waypoints):
+        end = np.asarray(s.path.points[-1], dtype=np.float64)
+    else:
+        end = path_position(s.path, (s.steps - 1) * s.dt)
+    with np.errstate(over="ignore", invalid="ignore"):  # δ/σ for a σ of 1e-300: no slot, no error
+        return np.asarray(end + shaped(s.offsets, sigma=scale, theta=theta), dtype=np.float64)
+
+
+def _final_slots_clear(s: Scenario) -> None:
+    """With the safety filter, no follower's final slot lies inside a standing obstacle's guard
+    circle r_j + ρ: the filter keeps the follower's centre out of it for good (the leader's
+    end is Assumption 4's, or the detour's 2ρ + ε).
+
+    The margin is the guard itself, no more: the agent's body needs nothing beyond it (the load
+    demands ρ ≥ agent_radius), and a slot on the circle can be held (the row allows D = r + ρ).
+    A slot inside it by less than a tolerance may still be counted as reached, the agent
+    pressed against the guard by its nominal law for good; its shape is never taken."""
+    if s.control.safety != "filter":
+        return
+    rho = s.control.safety_margin
+    slots = _final_slots(s)[1:]
+    with np.errstate(over="ignore", invalid="ignore"):
+        clear = np.linalg.norm(slots[:, None, :] - s.obstacle_centres, axis=2) - s.obstacle_radii
+    inside = np.argwhere(clear < rho)  # NaN (an overflowed slot) is never inside
+    if inside.size:
+        i = int(inside[0, 0])
+        o = int(np.argmin(clear[i]))
+        raise ScenarioError(
+            f"agents[{i + 1}].offset",
+            f"the final slot of agent {i + 2} lies {clear[i, o]:.3g} m from the edge of "
+            f"{_named(s, o)}, inside its guard circle ρ = {rho} m: the safety filter keeps the "
+            "agent out of it, so the formation can never arrive in its final shape",
+        )
 
 
 def _safety(s: Scenario) -> None:
