@@ -16,6 +16,7 @@ from shoal.world.arrival import (
     arrival_tolerance,
     route_left,
     trailing_mean,
+    trailing_min,
     window_ticks,
 )
 from shoal.world.loader import parse_scenario
@@ -171,6 +172,16 @@ def test_a_detour_shorter_than_the_no_progress_time_is_no_livelock() -> None:
     assert got.time == pytest.approx(19.7)  # back at 19 s; its 1 s average within R at 19.7 s
 
 
+def test_a_follower_trailing_its_moving_slot_is_tracking_not_livelocked() -> None:
+    """The leader is on a 100 m route for all 60 s; its follower keeps 1 m behind its slot: no
+    progress towards it, moving, but the slot moves too."""
+    s, t = scenario(waypoints="[[0, 0], [100, 0]]"), times()
+    leader = np.stack([t, np.zeros_like(t)], axis=1)
+    got = arrival(s, trajectory(leader, leader + SLOT - [1.0, 0.0]))
+    assert not got.arrived and got.cause == "out of time"
+    assert got.livelocks == 0 and got.slot_distance == pytest.approx(1.0)
+
+
 def test_followers_still_converging_when_the_run_ends_are_out_of_time() -> None:
     """The leader is home; the follower closes in on its slot at 0.2 m/s, 2 m every 10 s."""
     s, t = scenario(duration=30.0), times(30.0)
@@ -198,6 +209,13 @@ def test_the_route_left_shrinks_along_a_route_that_turns_back() -> None:
 
 def test_the_window_is_a_second_at_least_ten_ticks_and_even() -> None:
     assert [window_ticks(dt) for dt in (0.01, 0.03, 0.05, 0.1, 0.5)] == [100, 34, 20, 10, 10]
+
+
+@pytest.mark.parametrize("p", [0, 1, 4, 7, 30])
+def test_the_trailing_min_is_the_least_of_the_last_p_plus_one_samples(p: int) -> None:
+    x = np.random.default_rng(p).normal(size=(50, 3))
+    want = np.stack([x[max(0, k - p) : k + 1].min(axis=0) for k in range(50)])
+    assert np.array_equal(trailing_min(x, p), want)
 
 
 def test_the_trailing_mean_averages_what_there_is_before_a_full_window() -> None:

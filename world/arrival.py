@@ -15,13 +15,14 @@ error within R, at k and at every tick after it to the end of the run; the arriv
 first such k·dt. The leader's goal is its last waypoint; a sinusoid never ends, so there the
 goal is where the path is at that tick (the formation arrives when it is on the moving path).
 
-**Progress.** An agent off its goal (distance d > R) makes no progress at tick k when, in the
-stretch of ticks it has been off, it is not closer by more than R than its best up to
-P = :data:`NO_PROGRESS_TIME` s before: d(k) > min d(stretch start .. k − P) − R. An agent is
-**still** when its window-averaged position moved slower than STALL_SPEED over the last window,
-else **moving**. For the leader d is the route left: the distance to the next waypoint it has
-not yet come within R (+ one step) of, plus the legs after it (on a sinusoid: its distance to
-where the path is).
+**Progress.** A follower makes no progress at tick k when the leader has been home and the
+follower off its slot (d > R) throughout the last P = :data:`NO_PROGRESS_TIME` s, and d(k) is
+not below its least over the P s before those by more than R (the leader must be home: while it
+moves, so do the slots, and a follower trailing its slot is tracking it). It is **still** when its
+window-averaged position moved slower than STALL_SPEED over the last window, else **moving**.
+The leader makes no progress when its route left is not below its least up to P s ago by more
+than R; the route left is the distance to the next waypoint it has not yet come within R
+(+ one step) of, plus the legs after it (on a sinusoid: its distance to where the path is).
 
 **Why not.** A run that has not arrived at its last tick is named by the state at that tick:
 - "leader trapped": the leader is not within R of its goal and has made no progress;
@@ -30,8 +31,8 @@ where the path is).
 - "out of time": anything else (the leader still on its way, or followers still converging).
 
 **Livelocks** are counted over the whole run, follower by follower: every maximal stretch of
-ticks in which it is off its slot, moving and making no progress, as long as the stretch plus
-the P s of no progress that flagged its first tick.
+ticks in which it moves and makes no progress, as long as the stretch plus the P s that
+flagged its first tick.
 """
 
 from __future__ import annotations
@@ -102,19 +103,32 @@ def window_speed(x: FloatArray, w: int, dt: float) -> FloatArray:
     return np.asarray(np.linalg.norm(x - back, axis=-1) / (w * dt), dtype=np.float64)
 
 
-def no_progress(d: FloatArray, tol: float, p: int) -> BoolArray:
-    """(T, k) whether each of k agents, off its goal (``d`` (T, k) > ``tol``, m), is no closer
-    than ``tol`` better than its best of the same off-stretch up to ``p`` ticks before."""
+def trailing_min(x: FloatArray, p: int) -> FloatArray:
+    """(T, ...) the least of ``x`` (T, ...) over the p+1 samples up to and including each one
+    along axis 0 (fewer at the start): van Herk's blocks, O(T) for any p.
+
+    The front is padded with copies of the first sample, which every early window holds
+    anyway; the back only up to a whole block, which no window reaches."""
+    m, t = p + 1, x.shape[0]
+    head = np.repeat(x[:1], m - 1, axis=0)
+    tail = np.repeat(x[-1:], -(t + m - 1) % m, axis=0)
+    padded = np.concatenate([head, x, tail])
+    blocks = padded.reshape(-1, m, *x.shape[1:])
+    fwd = np.minimum.accumulate(blocks, axis=1).reshape(padded.shape)
+    bwd = np.minimum.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].reshape(padded.shape)
+    k = np.arange(t)
+    return np.asarray(np.minimum(bwd[k], fwd[k + m - 1]), dtype=np.float64)
+
+
+def stuck(d: FloatArray, tol: float, p: int) -> BoolArray:
+    """(T, k) whether each of k agents makes no progress at each tick: its distance ``d``
+    (T, k) m has stayed above ``tol`` over the last p+1 ticks and is not below its least of the
+    p ticks before those by more than ``tol``. False in the first 2p ticks."""
+    recent = trailing_min(d, p)
     out = np.zeros(d.shape, dtype=bool)
-    off = d > tol
-    for i in range(d.shape[1]):
-        flags = np.concatenate([[False], off[:, i], [False]]).astype(np.int8)
-        edges = np.flatnonzero(np.diff(flags))
-        for a, b in zip(edges[::2], edges[1::2], strict=True):
-            if b - a <= p:
-                continue  # off for less than P: too soon to say
-            best = np.minimum.accumulate(d[a:b, i])
-            out[a + p : b, i] = d[a + p : b, i] > best[: b - a - p] - tol
+    if d.shape[0] > 2 * p:
+        earlier = recent[p:-p]  # the least over [k − 2p, k − p], for k from 2p on
+        out[2 * p :] = (recent[2 * p :] > tol) & (d[2 * p :] > earlier - tol)
     return out
 
 
@@ -172,18 +186,19 @@ def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
     home = np.linalg.norm(leader - leader_goals(scenario.path, ticks, dt), axis=1) <= tol
     d = np.linalg.norm(trailing_mean(slot_errors(scenario, traj), w), axis=-1)  # (T, n-1)
     ok = home & (d <= tol).all(axis=1)
-    stuck = no_progress(d, tol, p)
+    settled = trailing_min(home.astype(np.float64), p) > 0.5  # home for the last P s
+    held = stuck(d, tol, p) & settled[:, None]  # while the leader moves, so do the slots
     still = window_speed(trailing_mean(traj.positions[:ticks, 1:], w), w, dt) < STALL_SPEED
-    livelocked = (d > tol) & stuck & ~still
+    livelocked = held & ~still
     episodes = _episodes(livelocked, dt, p * dt)
     last = ticks - 1
     cause = None
     if not ok[last]:
-        left = route_left(scenario.path, leader, tol + scenario.path.speed * dt, dt)
         if not home[last]:
-            trapped = no_progress(left[:, None], tol, p)[last, 0]
-            cause = "leader trapped" if trapped else "out of time"
-        elif (stuck[last] & still[last] & (d[last] > tol)).any():
+            left = route_left(scenario.path, leader, tol + scenario.path.speed * dt, dt)
+            best = float(left[: last - p + 1].min()) if last >= p else -np.inf
+            cause = "leader trapped" if left[last] > best - tol else "out of time"
+        elif (held[last] & still[last]).any():
             cause = "deadlock"
         elif livelocked[last].any():
             cause = "livelock"
