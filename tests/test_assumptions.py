@@ -177,3 +177,35 @@ def test_on_a_sinusoid_the_final_slot_is_where_the_path_is_at_the_last_tick() ->
 
 def test_without_the_filter_a_final_slot_in_a_guard_loads() -> None:
     assert scenario_from_dict(post([17, 4.1], control={"safety": "paper"})).n == 4
+
+
+@pytest.mark.parametrize(
+    ("to", "speed", "duration", "agent"),
+    [([17, 3.5], 1.0, 25.0, 2), ([20, 0.4], 1.0, 25.0, 1), ([17, 3.5], 0.1, 60.0, 2)],
+    ids=["follower", "leader", "slow-but-in-time"],
+)
+def test_a_walker_that_stops_in_a_final_slot_is_refused(
+    to: list[float], speed: float, duration: float, agent: int
+) -> None:
+    """A route walker that stops keeps agents r + ρ + u·dt = 0.3 + 0.2 + u·0.01 m away."""
+    data = with_(base(), obstacles=[walker([17, 8], to, speed)], duration=duration)
+    edge = round(0.5 - 0.3, 3) if agent == 2 else round(0.4 - 0.3, 3)
+    message = (
+        rf"^obstacles\[0\]\.moves: it stops for good at its last waypoint, its edge {edge} "
+        rf"m from the final slot of agent {agent}, within ρ \+ u·dt = "
+    )
+    with pytest.raises(ScenarioError, match=message):
+        scenario_from_dict(data)
+
+
+@pytest.mark.parametrize(
+    "walking",
+    [
+        walker([17, 8], [17, 3.52]),  # 0.52 m from the slot, beyond 0.3 + 0.2 + 0.01
+        walker([17, 8], [17, 3.5], speed=0.1),  # 4.5 m at 0.1 m/s: still walking at 25 s
+        walker([17, 8], [17, 3.5], loop=True),
+    ],
+    ids=["beyond-its-guard", "on-its-way", "looping"],
+)
+def test_a_walker_that_does_not_stand_in_a_final_slot_loads(walking: dict[str, Any]) -> None:
+    assert scenario_from_dict(with_(base(), obstacles=[walking])).n == 4

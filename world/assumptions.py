@@ -23,7 +23,9 @@ agent's centre outside every guard circle r_j + ρ and every pair of agents 2R a
 times, so a slot inside either can never be filled; ρ ≥ agent_radius already holds the body):
 every shape demanded, the offsets and each applied reshape, keeps its slots 2R apart; every
 follower's final slot (the leader's last waypoint, or where its sinusoid is at the last tick,
-plus R(θ)δ_i/σ of the last reshape) lies outside every standing obstacle's guard circle.
+plus R(θ)δ_i/σ of the last reshape) lies outside every standing obstacle's guard circle; and
+no moving obstacle that walks a route and stops stops with a final slot inside its guard
+r + ρ + u·dt (the margin its row keeps, bus/safety.py ``mover_row``).
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from shoal.bus.path import path_position, path_positions, peak_speed
 from shoal.bus.types import Waypoints
 from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
 from shoal.world.graph import communication_graph, hop_distances, reached_from_leader
+from shoal.world.movers import Route
 from shoal.world.scenario import Scenario
 
 
@@ -57,6 +60,7 @@ def check_assumptions(s: Scenario) -> None:
         _final_slots_clear(s)
     if s.mover_ids:
         _movers(s)
+        _parked_movers(s)
     _beta(s)
 
 
@@ -327,6 +331,37 @@ def _final_slots_clear(s: Scenario) -> None:
             f"{_named(s, o)}, inside its guard circle ρ = {rho} m: the safety filter keeps the "
             "agent out of it, so the formation can never arrive in its final shape",
         )
+
+
+def _parked_movers(s: Scenario) -> None:
+    """No moving obstacle that walks a route and stops (``kind: route`` without ``loop``) stops
+    before the last tick with some agent's final slot inside r + ρ + u·dt of its centre: its
+    row (bus/safety.py ``mover_row``) keeps agents that far from it even at rest. When it stops
+    is bounded from above: each leg takes at most ⌈L/(u·dt)⌉ ticks, one more for rounding;
+    a walker that may still be on its way at the end is left alone."""
+    slots = _final_slots(s)
+    rho, dt, last = s.control.safety_margin, s.dt, s.steps - 1  # last: the last tick
+    for k in s.mover_ids:
+        o = s.obstacles[k]
+        m = o.motion
+        if not isinstance(m, Route) or m.loop:
+            continue
+        stops = [o.centre, *m.waypoints]
+        walk = sum(math.dist(a, b) / m.speed + 2 * dt for a, b in itertools.pairwise(stops))
+        if walk > last * dt:
+            continue
+        keep = o.radius + rho + m.speed * dt
+        with np.errstate(over="ignore", invalid="ignore"):
+            dist = np.linalg.norm(slots - np.asarray(m.waypoints[-1]), axis=1)
+        i = int(np.argmin(dist))
+        if dist[i] < keep:
+            raise ScenarioError(
+                f"obstacles[{k}].moves",
+                f"it stops for good at its last waypoint, its edge {dist[i] - o.radius:.3g} m "
+                f"from the final slot of agent {i + 1}, within ρ + u·dt = {keep - o.radius:.3g} "
+                "m: the safety filter keeps the agent out, so the formation can never arrive in "
+                "its final shape",
+            )
 
 
 def _safety(s: Scenario) -> None:
