@@ -93,14 +93,24 @@ def test_the_tolerance_is_half_the_separation_whatever_beta() -> None:
     assert arrival_tolerance(scenario(beta=2.0)) == arrival_tolerance(scenario(beta=60.0)) == 0.2
 
 
-def test_a_run_that_leaves_its_slot_before_the_end_has_not_arrived() -> None:
+def test_a_follower_knocked_off_its_slot_and_standing_at_the_end_is_a_deadlock() -> None:
+    """Settled since 9.8 s, the follower is pushed 1 m aside at 55 s and stands there: the
+    formation is worse than 10 s before and its farthest follower is still."""
     s, t = scenario(), times()
     leader = on_route(t)
     follower = leader + SLOT
-    follower[-20:, 1] += 1.0  # pushed 1 m aside for the last 2 s
+    follower[t >= 55.0, 1] += 1.0
     got = arrival(s, trajectory(leader, follower))
     assert not got.arrived and got.time is None
-    assert got.cause == "out of time"  # off for 2 s only: too soon to call it stuck
+    assert got.cause == "deadlock" and got.livelocks == 0
+
+
+def test_followers_off_their_slots_when_the_leader_has_just_come_home_are_out_of_time() -> None:
+    """The leader reaches the end of a 55 m route at 55 s of 60: 5 s is too soon to judge."""
+    s, t = scenario(waypoints="[[0, 0], [55, 0]]"), times()
+    leader = np.stack([np.minimum(t, 55.0), np.zeros_like(t)], axis=1)
+    got = arrival(s, trajectory(leader, leader + SLOT + [0.0, 1.0]))
+    assert not got.arrived and got.cause == "out of time"
 
 
 def test_a_leader_circling_short_of_its_goal_is_trapped() -> None:

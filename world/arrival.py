@@ -26,9 +26,12 @@ than R; the route left is the distance to the next waypoint it has not yet come 
 
 **Why not.** A run that has not arrived at its last tick is named by the state at that tick:
 - "leader trapped": the leader is not within R of its goal and has made no progress;
-- "deadlock": the leader is home and some follower off its slot made no progress and is still;
-- "livelock": the leader is home and some follower off its slot made no progress but moves;
-- "out of time": anything else (the leader still on its way, or followers still converging).
+- "deadlock": the leader has been home for the last P s and the formation made no progress in
+  them: its farthest follower is not closer than the farthest was at best in the P s before
+  those, by more than R; and that follower is still;
+- "livelock": the same, but that follower moves;
+- "out of time": anything else (the leader still on its way or home for less than P s, or the
+  formation still converging).
 
 **Livelocks** are counted over the whole run, follower by follower: every maximal stretch of
 ticks in which it moves and makes no progress, as long as the stretch plus the P s that
@@ -198,10 +201,12 @@ def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
             left = route_left(scenario.path, leader, tol + scenario.path.speed * dt, dt)
             best = float(left[: last - p + 1].min()) if last >= p else -np.inf
             cause = "leader trapped" if left[last] > best - tol else "out of time"
-        elif (held[last] & still[last]).any():
-            cause = "deadlock"
-        elif livelocked[last].any():
-            cause = "livelock"
+        elif settled[last] and last >= 2 * p:
+            worst = d.max(axis=1)  # the formation is as far as its farthest follower
+            if worst[last] > trailing_min(worst, p)[last - p] - tol:  # no progress in P s
+                cause = "deadlock" if still[last, int(np.argmax(d[last]))] else "livelock"
+            else:
+                cause = "out of time"
         else:
             cause = "out of time"
     before = np.flatnonzero(~ok)
