@@ -138,6 +138,7 @@ _CHECKS: dict[str, Callable[[Scenario], None]] = {
     "overlap": assumptions._obstacles_apart,
     "A1": assumptions._assumption1,
     "safety": assumptions._safety,
+    "slots": assumptions._slots_apart,
 }
 _OBSTACLE_CHECKS: dict[str, Callable[[Scenario], None]] = {
     "A2": assumptions._assumption2,
@@ -145,12 +146,14 @@ _OBSTACLE_CHECKS: dict[str, Callable[[Scenario], None]] = {
     "A4": assumptions._assumption4,
     "reach": assumptions._trigger_reach,
     "starts": assumptions._starts_clear,
+    "goals": assumptions._final_slots_clear,
 }
 
 
 def breaches(s: Scenario) -> frozenset[str]:
     """Names of the load-time checks that ``s`` fails: A1-A4, ``reach``, ``overlap``,
-    ``starts``, and ``speed`` for |f| ≥ β. Empty for a scenario the loader accepts silently."""
+    ``starts``, ``slots`` (slots closer than the separation), ``goals`` (a final slot in a
+    guard circle), and ``speed`` for |f| ≥ β. Empty for a scenario the loader accepts silently."""
     checks = dict(_CHECKS)
     if s.obstacles:
         checks.update(_OBSTACLE_CHECKS)
