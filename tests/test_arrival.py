@@ -7,6 +7,8 @@ written by hand, so each rule is exercised on its own.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -231,3 +233,22 @@ def test_the_trailing_min_is_the_least_of_the_last_p_plus_one_samples(p: int) ->
 def test_the_trailing_mean_averages_what_there_is_before_a_full_window() -> None:
     x = np.arange(6, dtype=np.float64)[:, None]
     assert trailing_mean(x, 4)[:, 0].tolist() == [0.0, 0.5, 1.0, 1.5, 2.5, 3.5]
+
+
+def test_a_formation_whose_agreed_sigma_flips_every_tick_has_not_arrived() -> None:
+    """σ 2 ↔ 1 every tick from 30 s: the follower stands halfway between its two slots
+    (-1.5, 0), so its error alternates ±0.5 m and the 1 s average cancels it; the formation
+    has not arrived all the same, and the flipping is named a livelock."""
+    s, t = scenario(), times()
+    leader = on_route(t)
+    follower = leader + SLOT
+    follower[300:] = leader[300:] + np.array([-1.5, 0.0])
+    traj = trajectory(leader, follower)
+    flips = np.where(np.arange(traj.ticks) % 2 == 0, 2.0, 1.0)
+    sigma = traj.sigma.copy()
+    sigma[300:] = flips[300:, None]
+    got = arrival(s, dataclasses.replace(traj, sigma=sigma))
+    assert got.slot_distance < got.tolerance  # the average alone would call it arrived
+    assert not got.arrived and got.time is None and got.cause == "livelock"
+    steady = arrival(s, dataclasses.replace(traj, sigma=np.where(sigma > 1.0, 1.0, sigma)))
+    assert not steady.arrived and steady.cause == "deadlock"  # 0.5 m off, standing

@@ -10,10 +10,14 @@ are judged on their error s_i − s_1 − R(θ)δ_i/σ averaged over a trailing 
 :func:`window_ticks` ticks (1 s, at least 10 ticks, an even count so that a period-2 chatter
 cancels); the leader, which does not chatter, on its position.
 
-**Arrived** at tick k: the leader within R of its goal and every follower's window-averaged
-error within R, at k and at every tick after it to the end of the run; the arrival time is the
-first such k·dt. The leader's goal is its last waypoint; a sinusoid never ends, so there the
-goal is where the path is at that tick (the formation arrives when it is on the moving path).
+**Arrived** at tick k: the leader within R of its goal, every follower's window-averaged
+error within R, and no agent's σ or θ changed over the window, at k and at every tick after it
+to the end of the run; the arrival time is the first such k·dt. (A formation whose agreed σ
+flips every epoch has errors that alternate in sign: their mean can be small while every
+follower is metres off its slot at every tick — a hard field, σ 8 ↔ 1 every 2 ticks to the
+end with followers 4.8–5.0 m off, counted as arrived before this rule.)
+The leader's goal is its last waypoint; a sinusoid never ends, so there the goal is where the
+path is at that tick (the formation arrives when it is on the moving path).
 
 **Progress.** A follower makes no progress at tick k when the leader has been home and the
 follower off its slot (d > R) throughout the last P = :data:`NO_PROGRESS_TIME` s, and d(k) is
@@ -29,7 +33,9 @@ than R; the route left is the distance to the next waypoint it has not yet come 
 - "deadlock": the leader has been home for the last P s and the formation made no progress in
   them: its farthest follower is not closer than the farthest was at best in the P s before
   those, by more than R; and that follower is still;
-- "livelock": the same, but that follower moves;
+- "livelock": the same, but that follower moves; or the agreed shape changed more than twice
+  in the last P s (a contraction and its return are two changes; more is Algorithm 1 flipping
+  σ, which no follower's averaged error shows: see Arrived);
 - "out of time": anything else (the leader still on its way or home for less than P s, or the
   formation still converging).
 
@@ -180,6 +186,15 @@ def _episodes(flags: BoolArray, dt: float, extra: float) -> list[float]:
     return out
 
 
+def _shape_changes(traj: Trajectory) -> BoolArray:
+    """(T,) whether some agent applies another σ or θ at tick k than at tick k − 1."""
+    out = np.zeros(traj.ticks, dtype=bool)
+    if traj.ticks > 1:
+        moved = (traj.sigma[1:] != traj.sigma[:-1]) | (traj.theta[1:] != traj.theta[:-1])
+        out[1:] = moved.any(axis=1)
+    return out
+
+
 def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
     """Whether, when, and if not why the run arrived, and its livelocks (module docstring)."""
     tol = arrival_tolerance(scenario)
@@ -188,7 +203,9 @@ def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
     leader = traj.positions[:ticks, 0]
     home = np.linalg.norm(leader - leader_goals(scenario.path, ticks, dt), axis=1) <= tol
     d = np.linalg.norm(trailing_mean(slot_errors(scenario, traj), w), axis=-1)  # (T, n-1)
-    ok = home & (d <= tol).all(axis=1)
+    changed = _shape_changes(traj)
+    steady = trailing_min((~changed).astype(np.float64), w) > 0.5  # no change over the window
+    ok = home & (d <= tol).all(axis=1) & steady
     settled = trailing_min(home.astype(np.float64), p) > 0.5  # home for the last P s
     held = stuck(d, tol, p) & settled[:, None]  # while the leader moves, so do the slots
     still = window_speed(trailing_mean(traj.positions[:ticks, 1:], w), w, dt) < STALL_SPEED
@@ -201,6 +218,8 @@ def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
             left = route_left(scenario.path, leader, tol + scenario.path.speed * dt, dt)
             best = float(left[: last - p + 1].min()) if last >= p else -np.inf
             cause = "leader trapped" if left[last] > best - tol else "out of time"
+        elif settled[last] and int(changed[last - p + 1 :].sum()) > 2:
+            cause = "livelock"  # the agreed shape keeps changing: Algorithm 1 flips σ
         elif settled[last] and last >= 2 * p:
             worst = d.max(axis=1)  # the formation is as far as its farthest follower
             if worst[last] > trailing_min(worst, p)[last - p] - tol:  # no progress in P s
