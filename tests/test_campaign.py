@@ -287,3 +287,22 @@ def test_the_report_lists_every_safe_field_that_stalled_or_did_not_settle() -> N
     assert "seed      6: not arrived: deadlock (a follower 2.41 m off its slot)" in text
     assert "seed      7: 1 livelocks, longest 14.50 s" in text
     assert "6/8 (75.0 %)" in text
+
+
+def test_a_hard_campaign_runs_the_generators_fields_in_2d_and_3d(tmp_path: Path) -> None:
+    """--kind hard: --fields of tools/campaign/hard.py's fields in each dimension, their own
+    sets with an arrival rate, and a lagging one saved runs as it ran."""
+    code, rep = _campaign(
+        "--kind", "hard", "--fields", "2", "--jobs", "1", "--save-lagging", str(tmp_path)
+    )  # fmt: skip
+    assert code == 0, rep["failures"]
+    assert set(rep["sets"]) == {"hard/2d", "hard/3d"}
+    for s in rep["sets"].values():
+        assert s["fields"] == 2 and s["collided"] == 0
+        assert 0 <= s["arrived"] <= 2 and s["arrival_rate"] == s["arrived"] / 2
+    assert {g["set"] for g in rep["lagging"]} <= {"hard/2d", "hard/3d"}
+
+
+def test_a_hard_campaign_is_refused_with_options_it_cannot_honour() -> None:
+    result = CliRunner().invoke(main, ["campaign", "--kind", "hard", "--safety", "paper"])
+    assert result.exit_code == 2 and "--kind hard" in result.output

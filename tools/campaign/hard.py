@@ -43,6 +43,8 @@ from shoal.world.errors import AssumptionError, ScenarioWarning, WorldError
 from shoal.world.loader import parse_scenario, scenario_from_dict
 from shoal.world.scenario import Scenario
 
+# The campaign's sets of hard fields (``shoal campaign --kind hard``), by dimension.
+HARD_MODES = {"hard/2d": 2, "hard/3d": 3}
 SLACK = 40.0  # s after the route's end: time to arrive
 TRIES = 60  # candidates per obstacle before it is given up
 SKELETONS = 50  # sub-seeds tried for a skeleton the loader accepts

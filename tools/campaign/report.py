@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from shoal.tools.campaign.fields import BREACHES, REFUSED
+from shoal.tools.campaign.hard import HARD_MODES
 from shoal.tools.campaign.runner import Outcome
 from shoal.world.arrival import CAUSES
 
@@ -83,13 +84,14 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
     time its fields took (drawing, simulating, measuring), which a loaded machine inflates less.
     """
     sets: dict[str, Any] = {}
-    for mode, safety in itertools.product(("inside", *BREACHES), ("filter", "paper")):
+    modes = ("inside", *BREACHES, *HARD_MODES)
+    for mode, safety in itertools.product(modes, ("filter", "paper")):
         name = mode if safety == "filter" else f"{mode}/paper"
         chosen = [o for o in outcomes if o.set_name == name]
         if chosen:
             sets[name] = summarize_set(chosen)
             sets[name]["safety"] = safety
-            if mode != "inside":
+            if mode in BREACHES:
                 b = BREACHES[mode]
                 sets[name]["breaks"] = b.assumption
                 sets[name]["static"] = b.static
@@ -175,15 +177,19 @@ def render(rep: dict[str, Any]) -> str:
         )
     lines = [*safety, "", *runs, "", *liveness, ""]
     for mode, s in rep["sets"].items():
-        if mode != "inside" and s["safety"] == "filter":
+        if mode in BREACHES and s["safety"] == "filter":
             lines.append(f"{mode:<12} breaks {s['breaks']}: {BREACHES[mode].what}")
-    lines.append(
+    notes = (
         "margins: least clearance − ρ and least separation − 2R over whole steps (≥ 0 under "
         "the filter's theorem); settled: error ≤ tolerance at the end; stalled: fields where an "
         "agent was held by the filter > 0.5 s; livelocked: moving without getting closer to its "
-        "slot; arrived: leader home and formation in place to the end (docs/campaign.md); "
-        "/paper: the same fields, filter off"
+        "slot; arrived: leader home and formation in place to the end (docs/campaign.md)"
     )
+    if any(mode.endswith("/paper") for mode in rep["sets"]):
+        notes += "; /paper: the same fields, filter off"
+    if any(mode in HARD_MODES for mode in rep["sets"]):
+        notes += "; hard/2d, hard/3d: the adversarial generator's fields (--kind hard)"
+    lines.append(notes)
     lines.append(
         f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "
         f"({rep['fields_per_s']} fields/s; {rep['cpu_s_per_field']} CPU s per field)"

@@ -23,6 +23,7 @@ from typing import TypeVar
 import numpy as np
 
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, make_field
+from shoal.tools.campaign.hard import HARD_MODES, hard_field
 from shoal.tools.simulator import simulate
 from shoal.world.errors import WorldError
 from shoal.world.loader import parse_scenario
@@ -182,7 +183,10 @@ def run_task(task: Task) -> Outcome:
     """Draw and run one field (in a worker process)."""
     start = time.process_time()
     try:
-        field = make_field(_base(task.base, task.base_name), task.seed, task.mode, task.options)
+        if task.mode in HARD_MODES:
+            field = hard_field(task.seed, HARD_MODES[task.mode])
+        else:
+            field = make_field(_base(task.base, task.base_name), task.seed, task.mode, task.options)
     except WorldError as exc:
         return _failed(task, str(exc))
     return judge(field, task.mode, time.process_time() - start)
@@ -202,10 +206,19 @@ def tasks(
     outside: int,
     options: FieldOptions,
     safety: Sequence[str] = ("filter",),
+    *,
+    hard: bool = False,
 ) -> list[Task]:
     """``fields`` inside fields with seeds seed, seed+1, …, then ``outside`` fields per
     breach with the same seeds; each once per ``safety`` mode ("filter", "paper"): the same
-    field, run with and without the safety filter."""
+    field, run with and without the safety filter. ``hard``: instead ``fields`` hard fields
+    (tools/campaign/hard.py) in 2-D and as many in 3-D, with the filter."""
+    if hard:
+        return [
+            Task(base.source, base.name, seed + k, mode, options)
+            for mode in HARD_MODES
+            for k in range(fields)
+        ]
     out = []
     for mode in ("inside", *(BREACHES if outside else ())):
         count = fields if mode == "inside" else outside

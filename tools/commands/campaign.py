@@ -153,6 +153,15 @@ def _count(text: str) -> tuple[int, int]:
     "--agent-speed", default=PeopleOptions.agent_speed, show_default=True,
     type=click.FloatRange(min=0.05), help="--people: the robots' speed limit, m/s.",
 )  # fmt: skip
+@click.option(
+    "--kind",
+    type=click.Choice(["around", "hard"]),
+    default="around",
+    show_default=True,
+    help="around: fields around BASE, inside and outside the assumptions; hard: the adversarial "
+    "generator's admissible fields, --fields of them in 2-D and as many in 3-D "
+    "(docs/campaign.md, Hard fields).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def campaign(
     base: str | None,
@@ -176,6 +185,7 @@ def campaign(
     people_speed: float,
     people_model: str,
     agent_speed: float,
+    kind: str,
     as_json: bool,
 ) -> None:
     """Run many random obstacle fields through the reference simulator, in parallel.
@@ -200,6 +210,12 @@ def campaign(
         crowd = PeopleOptions(
             count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
         )
+    hard = kind == "hard"
+    if hard and (swarm is not None or people is not None or safety != "filter"):
+        raise click.UsageError(
+            "--kind hard draws fields for the reference simulator with the safety filter: "
+            "not with --swarm, --people or --safety paper/both"
+        )
     if swarm is not None:
         if dask is not None:
             raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
@@ -210,8 +226,10 @@ def campaign(
         _people(scn, seed, count, options, crowd, where, save_failures, as_json)
         return
     modes = ("filter", "paper") if safety == "both" else (safety,)
-    todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes)
-    if not as_json:  # said up front: --fields counts the inside fields only
+    todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes, hard=hard)
+    if hard and not as_json:
+        click.echo(f"{len(todo)} runs: {count} hard fields in 2-D and {count} in 3-D", err=True)
+    elif not as_json:  # said up front: --fields counts the inside fields only
         sets = f"{count} inside the assumptions"
         if outside:
             sets += f" and {outside_fields} for each of the {len(BREACHES)} broken ones"
@@ -219,7 +237,8 @@ def campaign(
         hint = "" if not outside else " (--no-outside: inside only)"
         click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
     start = time.perf_counter()
-    with progress_bar(len(todo), f"{len(todo)} fields around {scn.name}") as bar:
+    label = f"{len(todo)} hard fields" if hard else f"{len(todo)} fields around {scn.name}"
+    with progress_bar(len(todo), label) as bar:
         outcomes: list[Outcome]
         outcomes, jobs = where.run(todo, lambda _o: bar.update(1), run_task)
     rep = report(outcomes, time.perf_counter() - start, jobs)
@@ -237,7 +256,10 @@ def campaign(
         for field in rep["lagging"]:
             field["file"] = kept.get(saved_stem(field["name"], field["safety"]))
     click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
-    _exit_status(rep, save_failures, "inside/paper" if safety == "paper" else "inside")
+    judged = (
+        ("hard/2d", "hard/3d") if hard else ("inside/paper" if safety == "paper" else "inside",)
+    )
+    _exit_status(rep, save_failures, judged)
 
 
 def _people(
@@ -295,8 +317,8 @@ def _swarms(
         sys.exit(1)  # (an agent-at-fault contact counts among the collisions)
 
 
-def _exit_status(rep: dict[str, Any], saved: Path | None, judged: str) -> None:
-    inside = [f for f in rep["failures"] if f["set"] == judged]
+def _exit_status(rep: dict[str, Any], saved: Path | None, judged: Sequence[str]) -> None:
+    inside = [f for f in rep["failures"] if f["set"] in judged]
     if inside:
         names = ", ".join(f["name"] for f in inside[:10]) + (" …" if len(inside) > 10 else "")
         where = f"saved in {saved}" if saved else "rerun with --save-failures DIR to keep them"
