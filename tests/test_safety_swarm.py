@@ -69,7 +69,7 @@ def test_campaign_swarm_runs_fields_as_processes_and_checks_them() -> None:
     assert rep["inexact"] == 0 and rep["collided"] == 0 and rep["actuator_corrections"] == 0
     (row,) = rep["rows"]
     assert row["exact"] is True and row["name"] == "obstacles-inside-0"
-    assert row["min_clearance"] >= row["guard_margin"] - 1e-9
+    assert row["min_clearance"] >= row["rho"] - 1e-9
 
 
 def test_campaign_swarm_with_people_equals_the_reference_bit_for_bit() -> None:

@@ -156,7 +156,7 @@ def measure(
         filter_activity=summary.filter_activity,
         stalls=summary.stalls,
         longest_stall=summary.longest_stall,
-        leader_reached=summary.leader_shortfall <= summary.tolerance,
+        leader_reached=summary.leader_shortfall <= summary.arrival_tolerance,
         guard_margin=math.inf if summary.guard_margin is None else summary.guard_margin,
         separation_margin=summary.separation_margin,
         arrived=summary.arrived,

@@ -60,7 +60,7 @@ def run_swarms(
                 "collisions": s["collisions"],
                 "min_clearance": s["min_clearance"],
                 "min_interagent_distance": s["min_interagent_distance"],
-                "guard_margin": field.control.safety_margin,
+                "rho": field.control.safety_margin,
                 "separation": field.separation,
                 "filter_activity": s["filter_activity"],
                 "actuator_corrections": s["actuator_corrections"],
@@ -94,7 +94,7 @@ def swarm_report(rows: list[dict[str, Any]], clock: str) -> dict[str, Any]:
         "min_clearance": min(clear, default=math.inf),
         "min_interagent_distance": min((r["min_interagent_distance"] for r in rows), default=0.0),
         "below_guard": sum(
-            r["min_clearance"] is not None and r["min_clearance"] < r["guard_margin"] - 1e-9
+            r["min_clearance"] is not None and r["min_clearance"] < r["rho"] - 1e-9
             for r in rows
         ),
         "below_separation": sum(
