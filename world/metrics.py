@@ -75,6 +75,7 @@ class Summary:
     arrival_time: float | None = None
     arrival_tolerance: float = 0.0
     not_arrived: str | None = None
+    leader_trapped: bool = False  # not_arrived is "leader trapped" (the world logs it live)
     slot_distance: float = 0.0  # m: the farthest follower from its slot at the end (averaged)
     livelocks: int = 0  # episodes of an agent moving without getting closer to its slot
     longest_livelock: float = 0.0  # s
@@ -291,6 +292,7 @@ def summarize(
         arrival_time=came.time,
         arrival_tolerance=came.tolerance,
         not_arrived=came.cause,
+        leader_trapped=came.cause == "leader trapped",
         slot_distance=came.slot_distance,
         livelocks=came.livelocks,
         longest_livelock=came.longest_livelock,

@@ -34,6 +34,7 @@ from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
+from shoal.world.watch import LeaderWatch
 
 
 class WorldAbort(RuntimeError):
@@ -149,7 +150,11 @@ class World(Declarations):
         clock = _Clock(
             realtime=self.options.clock == Clock.REALTIME, period=s.dt / self.options.speed
         )
+        watch = LeaderWatch(s)
         for k in range(s.steps):
+            said = watch.update(k, positions[0])
+            if said is not None:
+                self._event(k, 3 if watch.trapped else 2, 1, said)
             clock.sent(k)
             crowd, sensings = field.sense(k, positions, crowd, s.control.sensing_radius)
             for i in sorted(self.alive):
