@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -25,7 +26,7 @@ import yaml
 from shoal.bus.geometry import FloatArray
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.world.assumptions import check_graph
-from shoal.world.errors import AssumptionError, WorldError
+from shoal.world.errors import AssumptionError, ScenarioWarning, WorldError
 from shoal.world.loader import CONTROL_DEFAULTS, parse_scenario, scenario_from_dict
 
 SHAPES = ("wedge", "line", "column", "grid", "circle")
@@ -130,7 +131,7 @@ def new_scenario(
         "initial_noise": 0.0,
         "leader": {"waypoints": [[0.0] * dim, [length] + [0.0] * (dim - 1)], "speed": speed},
     }
-    data["graph"]["edges"] = [list(e) for e in _graph(data, slots)]
+    data["graph"]["edges"] = [list(e) for e in sparsest_graph(data, slots)]
     if obstacles:
         data["obstacles"] = _obstacles(data, obstacles, seed, length)
     body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
@@ -141,17 +142,21 @@ def new_scenario(
     return text
 
 
-def _graph(data: dict[str, Any], slots: FloatArray) -> list[tuple[int, int]]:
-    """The sparsest nearest-slots graph that passes Assumptions 1 and 2."""
+def sparsest_graph(data: dict[str, Any], slots: FloatArray) -> list[tuple[int, int]]:
+    """The sparsest nearest-slots graph that passes Assumptions 1 and 2 for the scenario
+    ``data`` (its graph replaced), or the complete graph, which passes both. Other refusals of
+    the loader propagate; its warnings are left to the caller's own load of the result."""
     n = slots.shape[0]
     for k in range(2, n):
         edges = nearest_graph(slots, k)
         try:
-            check_graph(scenario_from_dict({**data, "graph": {"edges": edges}}))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ScenarioWarning)
+                check_graph(scenario_from_dict({**data, "graph": {"edges": edges}}))
         except AssumptionError:
             continue
         return edges
-    return list(itertools.combinations(range(1, n + 1), 2))  # complete: passes both
+    return list(itertools.combinations(range(1, n + 1), 2))
 
 
 def _obstacles(data: dict[str, Any], count: int, seed: int, length: float) -> list[Any]:

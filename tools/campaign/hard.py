@@ -37,9 +37,8 @@ import yaml
 
 from shoal.bus.path import path_position
 from shoal.tools.campaign.fields import FieldError
-from shoal.tools.shapes import SHAPES, nearest_graph, offsets
-from shoal.world.assumptions import check_graph
-from shoal.world.errors import AssumptionError, ScenarioWarning, WorldError
+from shoal.tools.shapes import SHAPES, offsets, sparsest_graph
+from shoal.world.errors import ScenarioWarning, WorldError
 from shoal.world.loader import parse_scenario, scenario_from_dict
 from shoal.world.scenario import Scenario
 
@@ -114,29 +113,14 @@ def _skeleton(rng: np.random.Generator, seed: int, dim: int) -> dict[str, Any] |
         "leader": {"waypoints": route, "speed": _round(speed)},
         "reshape": reshapes,
     }
-    data["graph"]["edges"] = [list(e) for e in _graph(data, slots)]
     try:
+        data["graph"]["edges"] = [list(e) for e in sparsest_graph(data, slots)]
         with warnings.catch_warnings():
             warnings.simplefilter("error", ScenarioWarning)
             scenario_from_dict(data)
     except (WorldError, ScenarioWarning):
         return None
     return data
-
-
-def _graph(data: dict[str, Any], slots: Any) -> list[tuple[int, int]]:
-    """The sparsest nearest-slots graph that passes Assumptions 1 and 2 (as tools/shapes.py)."""
-    n = slots.shape[0]
-    for k in range(2, n):
-        edges = nearest_graph(slots, k)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", ScenarioWarning)
-                check_graph(scenario_from_dict({**data, "graph": {"edges": edges}}))
-        except (AssumptionError, WorldError):
-            continue
-        return edges
-    return [(i, j) for i in range(1, n + 1) for j in range(i + 1, n + 1)]
 
 
 def _route(rng: np.random.Generator, dim: int, speed: float) -> tuple[list[list[float]], float]:
