@@ -24,7 +24,7 @@ from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passag
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import Known, lead, remember, steer
-from shoal.bus.geometry import Vector, VectorLike, segment_distance, shaped_vector, sub
+from shoal.bus.geometry import Vector, VectorLike, norm, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import safe_velocity
@@ -111,6 +111,11 @@ class Controller:
         self.busy_ticks = round(BUSY_TIME / config.dt)
         self.busy_error = BUSY_BAND * self.params.beta * config.dt
         self.calm_ticks = math.ceil(CALM_TAUS * tau / config.dt)
+        # m/s: with the safety filter, a heading slower than this has no direction (announce).
+        k = self.smoothing
+        self.still_below = 0.0
+        if self.filtered and k < 1.0:
+            self.still_below = self.params.beta * math.sqrt(config.dim * k / (2.0 - k))
 
     def _shaped(self, sigma: float, theta: float) -> tuple[Vector, tuple[Vector, ...]]:
         """R(θ)δ/σ of this agent and of its sensed neighbours, computed once per (σ, θ)."""
@@ -160,6 +165,7 @@ class Controller:
             sensing.obstacle_radii,
         )
         bid, agreed = memory.bid, memory.sigma_consensus
+        heading = self._direction(memory.heading)
         if epoch_start(tick, p.rounds):
             if tick > 0:
                 agreed = memory.bid
@@ -177,7 +183,7 @@ class Controller:
                 if manoeuvring
                 else passage_bid(
                     position,
-                    memory.heading,
+                    heading,
                     centres,
                     radii,
                     formation_radius=self.config.formation_radius / demanded,
@@ -192,7 +198,7 @@ class Controller:
         if not self.config.is_leader:
             evasion = collision_course(
                 position,
-                memory.heading,
+                heading,
                 sensing.obstacle_ids,
                 centres,
                 radii,
@@ -225,6 +231,26 @@ class Controller:
             theta=theta,
         )
         return memory, state
+
+    def _direction(self, heading: Vector) -> Vector:
+        """The heading along which (11)'s ray and Algorithm 1's look-ahead run: none (zero)
+        while it is slower than the sign term's chatter leaves in it at rest.
+
+        The heading is the agent's own velocity low-pass filtered with k = 1 − e^(−dt/τ). At
+        rest in its slot a follower's velocity is the sign term's chatter, ±β per coordinate,
+        whose filtered sum keeps a standard deviation of β·√(dim·k/(2 − k)) for independent
+        signs: a heading that points anywhere. Rays along it found obstacles beside the goal
+        slots and Algorithm 1 passages there: formations that had arrived evaded and contracted
+        again and again (on the hard fields, tools/campaign/hard.py, most of the 14 % that never
+        arrived: Ω set hundreds of times and σ at σ_max in the last 10 s, the filter idle).
+        Below that speed the agent is taken to have no direction of motion, as
+        :func:`~shoal.agent.collision.ray_distance` already takes one below 1e-9 m/s: no ray, no
+        collision course, no passage ahead. A formation on the move is faster than its chatter
+        floor once β·dt is small against its speed; with ``heading_tau`` 0 (no filtering) or
+        ``safety: paper`` nothing is gated (the paper's (11), bit for bit)."""
+        if self.still_below > 0.0 and norm(heading) < self.still_below:
+            return (0.0,) * len(heading)
+        return heading
 
     def act(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]

@@ -247,3 +247,41 @@ def test_a_follower_whose_neighbours_all_evade_follows_them_with_the_filter(safe
         assert np.array_equal(v, [0.0, 0.0])
     else:
         assert np.array_equal(v, law(me, (-2, 2), [(leader, (0, 0)), (three, (-2, -2))]))
+
+
+@pytest.mark.parametrize("safety", ["filter", "paper"])
+def test_a_heading_slower_than_the_chatter_floor_has_no_ray_with_the_filter(safety: str) -> None:
+    """β = 2, dt = 0.01, τ = 0.5 s: the floor is β·√(2k/(2 − k)) ≈ 0.283 m/s. The same
+    obstacle as above, straight ahead of a heading just under it: with the filter no collision
+    course (a follower at rest has no direction); in the paper's mode (11) as printed."""
+    scenario = triangle(
+        obstacles=[{"centre": [20.0, 2.3], "radius": 1.0}], control={"safety": safety}
+    )
+    c = Controller(scenario.agent_config(2))
+    k = 1.0 - np.exp(-0.01 / 0.5)
+    floor = 2.0 * np.sqrt(2 * k / (2 - k))
+    assert c.still_below == (pytest.approx(floor) if safety == "filter" else 0.0)
+    obstacle = {"ids": (0,), "centres": ((20.0, 2.3),), "radii": (1.0,)}
+    for speed, fires in ((0.99 * floor, safety == "paper"), (1.01 * floor, True)):
+        memory = Memory(heading=(speed, 0.0), evasion=None, bid=1.0, sigma_consensus=1.0)
+        _, announced = c.announce(memory, sensing((17.0, 2.0), **obstacle))
+        assert announced.omega is fires, speed
+
+
+def test_a_formation_at_rest_beside_an_obstacle_stops_evading_and_arrives() -> None:
+    """A field kept from the hard generator: at its goal, next to an obstacle, the followers'
+    chatter-only headings set Ω 161 times in the last 10 s and it never arrived."""
+    from pathlib import Path
+
+    from shoal.tools.simulator import simulate
+    from shoal.world.errors import DetourWarning
+    from shoal.world.loader import load_scenario
+    from shoal.world.metrics import summarize
+
+    with pytest.warns(DetourWarning):  # the leader's first leg runs through an obstacle
+        scn = load_scenario(Path(__file__).parent / "fields" / "evading-at-rest.yaml")
+    traj = simulate(scn)
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.arrived and s.livelocks == 0
+    last = traj.omega[-round(10.0 / scn.dt) :]
+    assert not last.any()  # nobody evades at rest

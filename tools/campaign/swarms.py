@@ -94,8 +94,7 @@ def swarm_report(rows: list[dict[str, Any]], clock: str) -> dict[str, Any]:
         "min_clearance": min(clear, default=math.inf),
         "min_interagent_distance": min((r["min_interagent_distance"] for r in rows), default=0.0),
         "below_guard": sum(
-            r["min_clearance"] is not None and r["min_clearance"] < r["rho"] - 1e-9
-            for r in rows
+            r["min_clearance"] is not None and r["min_clearance"] < r["rho"] - 1e-9 for r in rows
         ),
         "below_separation": sum(
             r["min_interagent_distance"] < r["separation"] - 1e-9 for r in rows
