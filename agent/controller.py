@@ -334,8 +334,8 @@ class Controller:
             guard=p.safety_margin,
             clearance=p.safety_margin + p.epsilon,
         )
-        v, left = lead(sensing.position, route, speed, self.config.dt)
-        return v, left, max(0, planned - (len(route) - len(left)))
+        v, route = lead(sensing.position, route, speed, self.config.dt)  # steer dropped what
+        return v, route, planned  # is reached here already: lead drops nothing more
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]

@@ -68,7 +68,7 @@ def remember(
     those in range now: planning against what is in view alone, a leader going round a cluster
     lost sight of one obstacle, planned round the other side, saw it again and turned back, for
     the rest of the run (measured on a hard field, tools/campaign/hard.py seed 33)."""
-    if all(any(i == k for k, _, _ in known) for i in ids):
+    if set(ids) <= {k for k, _, _ in known}:
         return known
     merged = {k: (k, c, r) for k, c, r in known}
     for i, c, r in zip(ids, centres, radii):

@@ -43,6 +43,16 @@ class Task:
     options: FieldOptions
 
 
+# The Outcome fields that are the Summary's own figures, under the same names.
+AS_SUMMARIZED = (
+    "min_interagent_distance", "convergence_time", "convergence_bound", "final_formation_error",
+    "tolerance", "sigma", "omega_episodes", "assumption2_violations", "safety",
+    "filter_activity", "stalls", "longest_stall", "separation_margin", "arrived",
+    "arrival_time", "not_arrived", "leader_shortfall", "slot_distance", "livelocks",
+    "longest_livelock",
+)  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Outcome:
     """What one field amounted to. Distances in m, times in s. ``error``: the field could not
@@ -142,30 +152,11 @@ def measure(
         obstacle_collisions=swept.obstacle_contacts(field.agent_radius) + summary.agent_at_fault,
         agent_collisions=swept.agent_contacts(field.agent_radius),  # people: by fault, above
         min_clearance=math.inf if summary.min_clearance is None else summary.min_clearance,
-        min_interagent_distance=summary.min_interagent_distance,
-        convergence_time=summary.convergence_time,
-        convergence_bound=summary.convergence_bound,
-        final_formation_error=summary.final_formation_error,
-        tolerance=summary.tolerance,
-        sigma=summary.sigma,
         a3_contracted=bool(field.standing_ids) and spacing <= 2 * float(field.obstacle_radii.max()),
-        omega_episodes=summary.omega_episodes,
-        assumption2_violations=summary.assumption2_violations,
         seconds=seconds,
-        safety=summary.safety,
-        filter_activity=summary.filter_activity,
-        stalls=summary.stalls,
-        longest_stall=summary.longest_stall,
         leader_reached=summary.leader_shortfall <= summary.arrival_tolerance,
         guard_margin=math.inf if summary.guard_margin is None else summary.guard_margin,
-        separation_margin=summary.separation_margin,
-        arrived=summary.arrived,
-        arrival_time=summary.arrival_time,
-        not_arrived=summary.not_arrived,
-        leader_shortfall=summary.leader_shortfall,
-        slot_distance=summary.slot_distance,
-        livelocks=summary.livelocks,
-        longest_livelock=summary.longest_livelock,
+        **{name: getattr(summary, name) for name in AS_SUMMARIZED},
     )
     if outcome.collided or outcome.lagged:  # kept to be saved: the field's own YAML
         outcome = dataclasses.replace(outcome, source=field.source)
