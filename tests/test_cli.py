@@ -14,7 +14,7 @@ from shoal.tools.cli import main
 from shoal.tools.commands.report import render_summary
 from shoal.tools.procs.launch import free_port
 from shoal.tools.simulator import simulate
-from shoal.world.loader import load_scenario
+from shoal.world.loader import builtin_names, load_scenario
 from shoal.world.trajectory import Trajectory
 
 KEYS = {
@@ -79,6 +79,10 @@ def test_scenarios_lists_every_builtin_and_prints_one() -> None:
     assert listed.exit_code == 0
     for name in ("default", "sinusoid", "passage", "obstacles"):
         assert name in listed.output
+    said = CliRunner().invoke(main, ["scenarios", "list"])  # not a scenario called "list"
+    assert said.exit_code == 0 and said.output == listed.output
+    assert [line.split()[0] for line in said.output.splitlines()] == builtin_names()
+    assert "5 agents, 2-D" in said.output
     shown = CliRunner().invoke(main, ["scenarios", "passage"])
     assert shown.exit_code == 0
 

@@ -69,12 +69,20 @@ def test_shoal_run_refuses_a_speed_in_lockstep_as_it_refuses_drops() -> None:
     assert "--speed" in result.output and "realtime" in result.output
 
 
+def test_the_old_mode_option_still_works_and_says_its_new_name() -> None:
+    """`--clock` is the word the summary and the docs use; `--mode` stays for old scripts."""
+    result = CliRunner().invoke(main, ["run", "sinusoid", "--mode", "lockstep", "--speed", "2"])
+    assert result.exit_code == 2, result.output
+    assert "--mode is now --clock" in result.stderr
+    assert "needs --clock realtime" in result.output
+
+
 def test_injected_drops_are_reported_by_shoal_run(tmp_path: Path) -> None:
     """--drop-rate's drops, counted by every agent, are totalled in the run's summary."""
     scenario = shortened(tmp_path, "sinusoid", 1.0)
     result = CliRunner().invoke(
         main,
-        ["run", str(scenario), "--mode", "realtime", "--drop-rate", "0.3", "--json",
+        ["run", str(scenario), "--clock", "realtime", "--drop-rate", "0.3", "--json",
          "--no-foxglove", "--out", str(tmp_path / "run.mcap")],
     )  # fmt: skip
     assert result.exit_code == 0, result.output
@@ -83,7 +91,7 @@ def test_injected_drops_are_reported_by_shoal_run(tmp_path: Path) -> None:
     assert 0.2 < drops["dropped"] / drops["offered"] < 0.4  # seeded draws at p = 0.3
     text = CliRunner().invoke(
         main,
-        ["run", str(scenario), "--mode", "realtime", "--drop-rate", "0.3", "--no-foxglove",
+        ["run", str(scenario), "--clock", "realtime", "--drop-rate", "0.3", "--no-foxglove",
          "--out", str(tmp_path / "again.mcap")],
     )  # fmt: skip
     assert text.exit_code == 0, text.output

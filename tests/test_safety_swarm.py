@@ -50,7 +50,7 @@ def test_a_filtered_lockstep_swarm_equals_the_reference_bit_for_bit(
 def test_a_realtime_swarm_keeps_every_guard_and_separation(tmp_path: Path) -> None:
     path = _field(6, tmp_path)
     scn = parse_scenario(path.read_text(encoding="utf-8"))
-    proc = run_cli(["run", str(path), "--mode", "realtime", "--speed", "1", "--json",
+    proc = run_cli(["run", str(path), "--clock", "realtime", "--speed", "1", "--json",
                     "--no-foxglove", "--out", str(tmp_path / "rt.mcap")])  # fmt: skip
     assert proc.returncode == 0
     got = json_of(proc)

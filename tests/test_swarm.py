@@ -63,7 +63,7 @@ def test_lockstep_run_equals_the_reference_simulator_bit_for_bit(name: str, tmp_
     assert read_trajectory(out, dt=scn.dt).equals(ref)
     expected = json_safe(summarize(scn, ref).as_dict())
     assert {k: got[k] for k in expected} == expected
-    assert got["mode"] == "lockstep" and got["wall_s"] > 0
+    assert got["clock"] == "lockstep" and got["wall_s"] > 0
 
 
 def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_path: Path) -> None:
@@ -225,7 +225,7 @@ def test_realtime_run_converges_without_collisions_and_reports_latency(
 ) -> None:
     # Speed 1 (100 ticks/s): at speed 2 eight processes on two loaded cores fell behind often
     # enough that late commands cost clearance (0.02 m once, load average 12).
-    proc = run_cli(["run", name, "--mode", "realtime", "--speed", "1", "--json", "--no-foxglove",
+    proc = run_cli(["run", name, "--clock", "realtime", "--speed", "1", "--json", "--no-foxglove",
                     "--out", str(tmp_path / "run.mcap")])  # fmt: skip
     assert proc.returncode == 0
     got = json_of(proc)

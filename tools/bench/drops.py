@@ -1,6 +1,6 @@
 """Formation error against the fraction of neighbour messages lost (issue 6, item 2).
 
-Each rate gets one realtime run of the whole swarm (``shoal run --mode realtime --drop-rate P``, a
+Each rate gets one realtime run of the whole swarm (``shoal run --clock realtime --drop-rate P``, a
 router of its own), and the error is read back from the run's log, so the figures are the world's
 ground truth, not what the agents believed. The steady-state error is the formation error of
 :func:`shoal.world.metrics.formation_errors` (worst follower, per-coordinate), over the ticks from

@@ -55,12 +55,18 @@ def _where_the_log_is(out: Path) -> str:
 @click.command()
 @click.argument("scenario", default="default")
 @click.option(
-    "--mode",
-    type=click.Choice(["lockstep", "realtime"]),
-    default="lockstep",
+    "--clock",
+    type=click.Choice([c.value for c in Clock]),
+    default=Clock.LOCKSTEP.value,
     help="lockstep: the world advances once every live agent's command for the tick is in "
     "(exact, deterministic); realtime: the world integrates at a fixed wall-clock rate with "
     "each agent's latest command.",
+)
+@click.option(
+    "--mode",
+    type=click.Choice([c.value for c in Clock]),
+    hidden=True,
+    help="The old spelling of --clock, kept for scripts; warns.",
 )
 @click.option(
     "--speed",
@@ -111,7 +117,8 @@ def _where_the_log_is(out: Path) -> str:
 )
 def run(
     scenario: str,
-    mode: str,
+    clock: str,
+    mode: str | None,
     speed: float,
     out: Path | None,
     connect: str | None,
@@ -134,17 +141,20 @@ def run(
     simulator's bit for bit, and the whole run is recorded in an MCAP file.
     """
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
+    if mode is not None:
+        warn("run: --mode is now --clock (the word the summary, the docs and the world use)")
+        clock = mode
     if live_wait and not live:
         raise click.UsageError("--live-wait waits for a viewer of --live: give --live too")
-    if drop_rate > 0 and mode != "realtime":
+    if drop_rate > 0 and clock != Clock.REALTIME:
         raise click.BadParameter(
-            "needs --mode realtime: a lockstep run waits for every state, so a dropped one "
+            "needs --clock realtime: a lockstep run waits for every state, so a dropped one "
             "would stall it forever",
             param_hint="--drop-rate",
         )
-    if speed != 1.0 and mode != "realtime":
+    if speed != 1.0 and clock != Clock.REALTIME:
         raise click.BadParameter(
-            "needs --mode realtime: a lockstep run goes as fast as its processes can, and "
+            "needs --clock realtime: a lockstep run goes as fast as its processes can, and "
             "its result does not depend on time",
             param_hint="--speed",
         )
@@ -162,7 +172,7 @@ def run(
         scenario=scn,
         out=out or Path("runs") / f"{scn.name}-{run_id}.mcap",
         run_id=run_id,
-        clock=Clock(mode),
+        clock=Clock(clock),
         speed=speed,
         connect=connect,
         start_timeout=start_timeout,
@@ -204,7 +214,7 @@ def run(
     if as_json:
         extra = {
             "injected_drops": drops,
-            "mode": mode,
+            "clock": clock,
             "wall_s": round(result.wall_s, 3),
             "startup_s": result.startup_s,
             "mcap": str(plan.out),

@@ -26,17 +26,23 @@ class _NameOrCommand(click.Group):
 @click.group(cls=_NameOrCommand, invoke_without_command=True)
 @click.pass_context
 def scenarios(ctx: click.Context) -> None:
-    """List the built-in scenarios; `shoal scenarios NAME` prints the YAML of one to start your
-    own from; `shoal scenarios new` makes a new one from a formation's shape.
+    """List the built-in scenarios (also `shoal scenarios list`); `shoal scenarios NAME` prints
+    the YAML of one to start your own from; `shoal scenarios new` makes a new one from a
+    formation's shape.
 
     The printed YAML has no `name:`, so a copy saved as mine.yaml runs (and names its logs and
     figures) as "mine", not as the built-in it came from.
     """
-    if ctx.invoked_subcommand is not None:
-        return
+    if ctx.invoked_subcommand is None:
+        ctx.invoke(list_builtins)
+
+
+@scenarios.command("list")
+def list_builtins() -> None:
+    """One line per built-in: its name, agents, dimension, duration and what it shows."""
     for n in builtin_names():
         s = load_for_cli(n)
-        click.echo(f"{n:<10} {s.n} agents, {s.duration:g} s  {s.description}")
+        click.echo(f"{n:<10} {s.n:>2} agents, {s.dim}-D, {s.duration:>3g} s  {s.description}")
 
 
 @scenarios.command(hidden=True)
