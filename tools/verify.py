@@ -7,11 +7,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from shoal.tools.log.reader import read_documents, read_ticks
+from shoal.tools.log.reader import read_documents, read_ticks, recorded_scenario
 from shoal.tools.log.salvage import LogError, check_log
 from shoal.tools.simulator import run
 from shoal.world.errors import ScenarioError
-from shoal.world.loader import parse_scenario
 
 
 class VerifyError(ValueError):
@@ -40,9 +39,12 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
     if "scenario" not in docs:
         raise VerifyError(f"{path}: no scenario recorded in the log")
     if docs.get("summary", {}).get("clock") == "realtime":
-        raise VerifyError(f"{path}: a realtime run depends on timing; only lockstep runs replay")
+        raise VerifyError(
+            f"{path}: a realtime run depends on timing, so no re-simulation can match it; "
+            "only lockstep runs are verified (`shoal replay` plays this one back)"
+        )
     try:
-        scenario = parse_scenario(str(docs["scenario"].get("yaml", "")))
+        scenario = recorded_scenario(docs["scenario"])
     except ScenarioError as exc:
         raise VerifyError(f"{path}: the recorded scenario does not load: {exc}") from None
     recorded = {r.tick: r for r in read_ticks(path)}

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from shoal.tools.commands.logs import one_log, the_log
 from shoal.tools.foxglove.export import ExportError, ExportResult, sibling, with_progress
 from shoal.tools.foxglove.views import ViewOptions
 from shoal.tools.ros2 import bag as ros2_bag
@@ -20,7 +21,7 @@ def describe(result: ExportResult) -> str:
 
 
 @click.command()
-@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@one_log
 @click.option(
     "-o",
     "--out",
@@ -52,7 +53,7 @@ def describe(result: ExportResult) -> str:
 @click.pass_context
 def export(
     ctx: click.Context,
-    file: Path,
+    file: Path | None,
     out: Path | None,
     scene_hz: float,
     plot_hz: float,
@@ -60,13 +61,15 @@ def export(
     force: bool,
     as_json: bool,
 ) -> None:
-    """Write Foxglove views of the run logged in FILE: a 3D scene, agent frames, a log and
-    plottable metrics, as Foxglove JSON channels in a new MCAP file (FILE is not changed).
+    """Write Foxglove views of the run logged in FILE (none: the last run in runs/): a 3D
+    scene, agent frames, a log and plottable metrics, as Foxglove JSON channels in a new MCAP
+    file (FILE is not changed).
 
     `shoal run` does this by itself at the end of a run; this is for older logs, or to choose
     other rates. Open the views file in Foxglove (docs/foxglove.md). With --ros2 DIR, write a
     ROS 2 bag of the run instead, for ros2 bag play and RViz (docs/ros2.md).
     """
+    file = the_log(file, command="export")
     if ros2 is not None:
         views_only = [
             f"--{name.replace('_', '-')}"

@@ -6,13 +6,14 @@ from pathlib import Path
 
 import click
 
+from shoal.tools.commands.logs import log_files, run_logs
 from shoal.tools.plot.save import PlotError
 from shoal.tools.plot.save import plot as draw
 from shoal.tools.progress import progress_bar
 
 
 @click.command()
-@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@log_files
 @click.option(
     "--out",
     "-o",
@@ -28,8 +29,9 @@ from shoal.tools.progress import progress_bar
     "consensus, omega.",
 )
 @click.option("--force", is_flag=True, help="Overwrite figures that exist already.")
-def plot(file: Path, out: Path, only: tuple[str, ...], force: bool) -> None:
-    """Draw the paper's figures from the run recorded in FILE.
+def plot(files: tuple[Path, ...], out: Path, only: tuple[str, ...], force: bool) -> None:
+    """Draw the paper's figures from the runs recorded in FILE... (a glob works; Foxglove
+    views files are left out); with no FILE, from the last run in runs/.
 
     \b
     trajectories     paths, obstacles, formation snapshots (paper Fig. 1b, 2a, 3a)
@@ -38,14 +40,16 @@ def plot(file: Path, out: Path, only: tuple[str, ...], force: bool) -> None:
     consensus        σ over time and Algorithm 1's rounds
     omega            when each agent was evading (Ω = 1)
     """
-    with progress_bar(len(only) or 5, "plotting") as bar:
-        try:
-            written = draw(
-                file, out, only=only, progress=lambda _name: bar.update(1), overwrite=force
-            )
-        except PlotError as exc:
-            raise click.ClickException(str(exc)) from None
-        except OSError as exc:
-            raise click.ClickException(f"{out}: cannot be written ({exc.strerror})") from None
-    for path in written:
-        click.echo(str(path))
+    logs = run_logs(files, command="plot")
+    with progress_bar(len(logs) * (len(only) or 5), "plotting") as bar:
+        for file in logs:
+            try:
+                written = draw(
+                    file, out, only=only, progress=lambda _name: bar.update(1), overwrite=force
+                )
+            except PlotError as exc:
+                raise click.ClickException(str(exc)) from None
+            except OSError as exc:
+                raise click.ClickException(f"{out}: cannot be written ({exc.strerror})") from None
+            for path in written:
+                click.echo(str(path))

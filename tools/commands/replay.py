@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from shoal.bus.runtime import exit_on_signals, warn
+from shoal.tools.commands.logs import one_log, the_log
 from shoal.tools.commands.options import live_options, live_view
 from shoal.tools.foxglove.export import ExportError, read_source, run_log
 from shoal.tools.log.replay import Selection
@@ -20,7 +21,7 @@ from shoal.tools.progress import progress_bar
 
 
 @click.command()
-@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@one_log
 @click.option("-r", "--rate", type=click.FloatRange(min=0.001, min_open=False), default=1.0,
               help="Playback speed factor.")  # fmt: skip
 @click.option("-l", "--loop", is_flag=True, help="Play again and again until interrupted.")
@@ -33,7 +34,7 @@ from shoal.tools.progress import progress_bar
               help="Zenoh router endpoint to republish onto (needed unless --live).")  # fmt: skip
 @live_options("as it replays (the replay waits for a viewer to subscribe)")
 def replay(
-    file: Path,
+    file: Path | None,
     rate: float,
     loop: bool,
     start_offset: float,
@@ -46,8 +47,9 @@ def replay(
 ) -> None:
     """Play FILE again: its raw channels on their original Zenoh keys (--connect), its
     Foxglove views on a live server (--live), or both, in order, at their original pace (times
-    RATE)."""
+    RATE). With no FILE, the last run in runs/."""
     exit_on_signals()
+    file = the_log(file, command="replay")
     if not connect and not live:
         raise click.UsageError(
             "say where to: --connect EP (a Zenoh router to republish onto), --live (watch it "

@@ -45,10 +45,10 @@ from shoal.tools.foxglove.views import (
     schema_text,
     views,
 )
+from shoal.tools.log.reader import recorded_scenario
 from shoal.tools.log.salvage import LogError, check_log
 from shoal.tools.progress import advance_to, progress_bar
 from shoal.world.errors import ScenarioError
-from shoal.world.loader import parse_scenario
 
 CHUNK_BYTES = 1024 * 1024  # mcap's default: a reader (Foxglove) seeks in steps of one chunk
 SUFFIX = ".foxglove.mcap"
@@ -171,9 +171,7 @@ def run_log(path: Path, src: Source) -> RunLog:
     if not src.scenario:
         raise ExportError(f"{path}: no scenario document in the log: nothing to draw the run in")
     try:
-        scenario = parse_scenario(
-            str(src.scenario.get("yaml", "")), default_name=str(src.scenario.get("name"))
-        )
+        scenario = recorded_scenario(src.scenario)
     except ScenarioError as exc:
         raise ExportError(f"{path}: the recorded scenario does not load: {exc}") from None
     ticks = []

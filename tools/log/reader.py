@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +12,8 @@ from mcap.reader import make_reader
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.messages import TickRecord
+from shoal.world.loader import parse_scenario
+from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
 
 
@@ -62,6 +64,16 @@ def _gaps(ticks: list[int]) -> str:
     if twice:
         parts.append(f"{len(twice)} recorded twice (first {', '.join(map(str, twice[:5]))})")
     return "; ".join(parts)
+
+
+def recorded_scenario(document: Mapping[str, Any]) -> Scenario:
+    """The scenario of a world's ``scenario`` document, under the name it ran as: the YAML of a
+    scenario from a file has no ``name:`` (the file's name gave it), the document does.
+    Raises ScenarioError if it does not load."""
+    name = document.get("name")
+    return parse_scenario(
+        str(document.get("yaml", "")), default_name=str(name) if name else "scenario"
+    )
 
 
 def read_documents(path: Path) -> dict[str, dict[str, Any]]:

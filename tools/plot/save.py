@@ -7,10 +7,9 @@ from pathlib import Path
 
 from mcap.exceptions import McapError
 
-from shoal.tools.log.reader import read_documents, read_trajectory
+from shoal.tools.log.reader import read_documents, read_trajectory, recorded_scenario
 from shoal.tools.log.salvage import LogError, check_log
 from shoal.world.errors import ScenarioError
-from shoal.world.loader import parse_scenario
 
 
 class PlotError(ValueError):
@@ -34,7 +33,7 @@ def load_view(path: Path) -> object:
     if "scenario" not in docs:
         raise PlotError(f"{path}: no scenario recorded in the log")
     try:
-        scenario = parse_scenario(str(docs["scenario"].get("yaml", "")))
+        scenario = recorded_scenario(docs["scenario"])
     except ScenarioError as exc:
         raise PlotError(f"{path}: the recorded scenario does not load: {exc}") from None
     try:
