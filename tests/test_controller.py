@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any
 
 import numpy as np
@@ -285,3 +286,45 @@ def test_a_formation_at_rest_beside_an_obstacle_stops_evading_and_arrives() -> N
     assert s.collisions == 0 and s.arrived and s.livelocks == 0
     last = traj.omega[-round(10.0 / scn.dt) :]
     assert not last.any()  # nobody evades at rest
+
+
+def _kept_field(name: str) -> tuple[Any, Any, float]:
+    """A field of tests/fields run through the reference: (scenario, trajectory, the least
+    distance of a final slot outside an obstacle's guard circle r + ρ, m)."""
+    from pathlib import Path
+
+    from shoal.tools.simulator import simulate
+    from shoal.world.assumptions import final_slots
+    from shoal.world.loader import load_scenario
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the usual detour warnings of hard fields
+        scn = load_scenario(Path(__file__).parent / "fields" / f"{name}.yaml")
+    slots = final_slots(scn)[1:]
+    gap = np.linalg.norm(slots[:, None] - scn.obstacle_centres[None], axis=-1)
+    gap = gap - scn.obstacle_radii - scn.control.safety_margin
+    return scn, simulate(scn), float(gap.min())
+
+
+def test_a_follower_whose_slot_is_on_a_guard_circle_settles_there() -> None:
+    """The slot is closer to the guard circle than the sign term's chatter, β·dt: the filter
+    clips the chatter on one side, and keep-going used to carry the follower on round the
+    circle each time it passed its slot (it never arrived: a livelock 1.6 m off)."""
+    from shoal.world.metrics import summarize
+
+    scn, traj, gap = _kept_field("slot-on-the-guard")
+    assert 0.0 < gap < scn.control.beta * scn.dt  # the case: a slot inside the chatter band
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.arrived and s.livelocks == 0
+
+
+def test_an_evasion_beside_a_slot_just_outside_the_guard_ends() -> None:
+    """The slot is less than ε outside r + ρ: an episode that had to wait for the way to the
+    slot to clear r + ρ + ε never ended, and the follower stayed off its slot by u^o."""
+    from shoal.world.metrics import summarize
+
+    scn, traj, gap = _kept_field("evading-beside-the-slot")
+    assert 0.0 < gap < scn.control.epsilon  # the case
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.arrived
+    assert not traj.omega[-round(10.0 / scn.dt) :].any()  # nobody evades at the goal

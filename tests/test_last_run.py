@@ -1,5 +1,5 @@
 """The last run one step away: the log commands with no FILE, globs that catch the Foxglove views
-file, a views file named alone, and a scenario from a file keeping its name (tools/commands/logs.py).
+file, a views file named alone, a scenario from a file keeping its name (tools/commands/logs.py).
 """
 
 from __future__ import annotations

@@ -294,7 +294,7 @@ def _slots_apart(s: Scenario) -> None:
             )
 
 
-def _final_slots(s: Scenario) -> FloatArray:
+def final_slots(s: Scenario) -> FloatArray:
     """(n, dim) where every agent should end, m: the leader's last waypoint, or on a sinusoid
     where the path is at the last tick, plus R(θ)δ_i/σ of the last shape demanded."""
     _k, scale, theta = _shapes(s)[-1]
@@ -318,7 +318,7 @@ def _final_slots_clear(s: Scenario) -> None:
     if s.control.safety != "filter":
         return
     rho = s.control.safety_margin
-    slots = _final_slots(s)[1:]
+    slots = final_slots(s)[1:]
     with np.errstate(over="ignore", invalid="ignore"):
         clear = np.linalg.norm(slots[:, None, :] - s.obstacle_centres, axis=2) - s.obstacle_radii
     inside = np.argwhere(clear < rho)  # NaN (an overflowed slot) is never inside
@@ -339,7 +339,7 @@ def _parked_movers(s: Scenario) -> None:
     row (bus/safety.py ``mover_row``) keeps agents that far from it even at rest. When it stops
     is bounded from above: each leg takes at most ⌈L/(u·dt)⌉ ticks, one more for rounding;
     a walker that may still be on its way at the end is left alone."""
-    slots = _final_slots(s)
+    slots = final_slots(s)
     rho, dt, last = s.control.safety_margin, s.dt, s.steps - 1  # last: the last tick
     for k in s.mover_ids:
         o = s.obstacles[k]
