@@ -275,7 +275,9 @@ def _tight(row: Row, velocity: Vector, dt: float) -> bool:
     return abs(vdot(row.normal, velocity) * dt - row.bound) <= 1e-9
 
 
-def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) -> Vector | None:
+def sidestep(
+    nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float, *, held: bool = False
+) -> Vector | None:
     """The right-hand rule against deadlock, or None when it does not apply.
 
     A projection can leave an agent standing: when its nominal points straight into a row that
@@ -288,14 +290,25 @@ def sidestep(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: float) 
     nominal's speed. Two agents head on each step to their own right and pass each other, as
     people do; an agent behind an obstacle goes round it to the right. The caller projects the
     result again, so safety does not depend on it.
+
+    ``held``: the agent's heading (its averaged velocity) is below that fraction of the
+    nominal's speed, so it is going nowhere, whatever the projection keeps this tick; then a
+    tight agent row turns the nominal too. The sign term's part across such a row flips every
+    tick and survives the projection whole: a follower pressed head on against an agent
+    standing between it and its slot (a leader at its goal) kept 40–100 % of its nominal's
+    speed at every tick, left and right in turn, and stood there for good (13 of the 19 hard
+    fields that still did not arrive). Obstacle rows are left to :func:`keep_going` then.
     """
     speed = math.sqrt(vdot(nominal, nominal))
-    if vdot(filtered, filtered) >= (SIDESTEP_BELOW * speed) ** 2:
+    slow = vdot(filtered, filtered) < (SIDESTEP_BELOW * speed) ** 2
+    if not (slow or held):
         return None
     push = [0.0] * len(nominal)
     for r in rows:
         if not _tight(r, filtered, dt):
             continue  # not what holds the agent back
+        if r.obstacle and not slow:
+            continue  # held, yet sliding along an obstacle: keep_going's case, not this one
         into = -vdot(r.normal, nominal)
         if into <= 0.0:
             continue
@@ -396,11 +409,13 @@ def safe_velocity(
     """The whole filter of one agent: cap the nominal at ``speed_limit`` (m/s), project it onto
     the rows of ``sensing``, and where that leaves the agent pressed against a row, project the
     right-hand turn of the nominal instead (:func:`sidestep`; ``right_hand`` False: the bare
-    projection, and ``previous`` is not used). Given the velocity held at the previous tick
-    (``previous``), an agent pressed against an obstacle goes on along it the way it was
-    going rather than back (:func:`keep_going`). ``active`` is True when the result differs
-    from the nominal as given (the cap alone counts). The result always meets every row and is
-    never faster than the capped nominal; a feasible nominal comes back unchanged."""
+    projection, and ``previous`` is not used). Given the agent's heading, its velocity
+    averaged over the last ticks (``previous``), an agent pressed against an obstacle goes on
+    along it the way it was going rather than back (:func:`keep_going`), and one going nowhere
+    turns right of an agent in its way (:func:`sidestep`'s ``held``). ``active`` is True when
+    the result differs from the nominal as given (the cap alone counts). The result always
+    meets every row and is never faster than the capped nominal; a feasible nominal comes back
+    unchanged."""
     capped = cap_speed(nominal, speed_limit)
     reach = math.hypot(*capped) * dt
     rows = rows_for(
@@ -415,7 +430,10 @@ def safe_velocity(
         return dataclasses.replace(out, active=out.velocity != nominal)
     out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
     if out.active and right_hand:
-        turned = sidestep(capped, out.velocity, rows, dt)
+        held = previous is not None and vdot(previous, previous) < vdot(capped, capped) * (
+            SIDESTEP_BELOW**2
+        )
+        turned = sidestep(capped, out.velocity, rows, dt, held=held)
         if turned is not None:
             again = project(turned, rows, dt)
             if not again.fallback:

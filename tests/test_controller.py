@@ -328,3 +328,13 @@ def test_an_evasion_beside_a_slot_just_outside_the_guard_ends() -> None:
     s = summarize(scn, traj)
     assert s.collisions == 0 and s.arrived
     assert not traj.omega[-round(10.0 / scn.dt) :].any()  # nobody evades at the goal
+
+
+def test_a_follower_pressed_against_the_leader_at_its_goal_goes_round_it() -> None:
+    """The follower's slot lies beyond the leader, which stands at its goal: head on against
+    it, going nowhere, the follower turns to its right (bus/safety.py, sidestep's ``held``)."""
+    from shoal.world.metrics import summarize
+
+    scn, traj, _gap = _kept_field("behind-the-leader")
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.arrived and s.stalls == 0

@@ -319,3 +319,28 @@ def test_an_agent_whose_way_on_is_blocked_by_a_neighbour_turns_back_along_the_gu
     assert bare @ tangent > 1.0  # the projection slides on round the guard
     assert got @ tangent >= 0.25 * np.linalg.norm(bare)  # and so does the filter
     assert np.linalg.norm(got - bare) < 1e-9 * np.linalg.norm(bare)
+
+
+@pytest.mark.parametrize("chatter", [-1.0, 1.0])
+def test_an_agent_going_nowhere_head_on_against_a_standing_one_turns_right_whatever_its_chatter(
+    chatter: float,
+) -> None:
+    """A follower pressed head on against an agent that stands between it and its slot: the
+    sign term's part across the row (±β) survives the projection whole, so the projection
+    alone keeps 40 % of the speed, left at one tick and right at the next, and the follower
+    stood there for good. Going nowhere (its heading near zero), it turns to its right either
+    way; on the move (its heading is its velocity), the projection is left as it is."""
+    half, beta = 0.2, 5.0
+    sensing = Sensing(
+        tick=0, position=(0.0, 0.0), obstacle_ids=(), obstacle_centres=(), obstacle_radii=(),
+        agent_ids=(1,), agent_positions=((0.0, 2 * half),),
+    )  # fmt: skip
+    nominal = (chatter * beta, 11.0)  # its slot lies beyond the standing agent, straight up
+    kw = {"dt": 0.01, "margin": 0.2, "half_separation": half, "speed_limit": 20.0}
+    bare = safe_velocity(nominal, sensing, 2, right_hand=False, **kw).velocity
+    assert bare == pytest.approx((chatter * beta, 0.0))  # the chatter is all that is kept
+    going_nowhere = safe_velocity(nominal, sensing, 2, previous=(0.01, 0.02), **kw).velocity
+    assert going_nowhere[0] > 0.5 * beta  # right of "towards it" (+y) is +x, both ticks
+    assert going_nowhere[1] <= 1e-12  # and never into the other agent's half
+    moving = (chatter * 5.0, 0.0)  # it slides along the row at speed: no turn
+    assert safe_velocity(nominal, sensing, 2, previous=moving, **kw).velocity == bare
