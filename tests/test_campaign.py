@@ -134,7 +134,7 @@ def _campaign(*args: str) -> tuple[int, dict[str, Any]]:
 def test_a_small_campaign_is_safe_inside_and_its_failures_replay(tmp_path: Path) -> None:
     saved = tmp_path / "failures"
     code, rep = _campaign(
-        "--fields", "10", "--obstacles", "1", "--outside-fields", "1", "--jobs", "2",
+        "--fields", "10", "--obstacles", "1", "--outside", "--outside-fields", "1", "--jobs", "2",
         "--save-failures", str(saved), "--safety", "both", "--save-lagging", str(tmp_path / "lag"),
     )  # fmt: skip
     assert code == 0, rep["failures"]
@@ -212,16 +212,30 @@ def test_bad_obstacle_count_is_a_usage_error() -> None:
 
 
 def test_the_campaign_says_up_front_how_many_runs_its_options_make() -> None:
-    """--fields counts the inside fields; the outside sets, on by default, multiply it."""
-    result = CliRunner().invoke(
-        main, ["campaign", "--fields", "1", "--obstacles", "1", "--outside-fields", "1"]
+    """--fields N runs N fields; --outside adds the sets that break an assumption, and the
+    banner says the total before the first field runs, and every column is explained."""
+    alone = CliRunner().invoke(main, ["campaign", "--fields", "3", "--obstacles", "1"])
+    assert alone.exit_code == 0, alone.output
+    assert alone.stderr.startswith(
+        "3 runs: 3 fields inside the assumptions (--outside: also fields that break one"
     )
-    assert result.exit_code == 0, result.output
+    assert "3 fields on" in alone.stdout
+    legend = alone.stdout.split("columns:\n")[1]
+    named = [line.split("  ")[1] for line in legend.splitlines() if line.startswith("  ")]
+    for header in ("σ > 1", "A3 by σ", "A2 in run", "leader at goal", "sep. margin", "p05"):
+        assert any(header in n for n in named), header  # every column is explained
+    more = CliRunner().invoke(
+        main,
+        ["campaign", "--fields", "1", "--obstacles", "1", "--outside", "--outside-fields", "1"],
+    )
+    assert more.exit_code == 0, more.output
     runs = 1 + len(BREACHES)
-    assert result.stderr.startswith(
-        f"{runs} runs: 1 inside the assumptions and 1 for each of the {len(BREACHES)} broken "
-        "ones (--no-outside: inside only)"
+    assert more.stderr.startswith(
+        f"{runs} runs: 1 fields inside the assumptions and 1 for each of the {len(BREACHES)} "
+        "broken ones\n"
     )
+    hard = CliRunner().invoke(main, ["campaign", "--kind", "hard", "--fields", "3", "--jobs", "1"])
+    assert hard.stderr.startswith("3 runs: 2 hard fields in 2-D and 1 in 3-D")
 
 
 def test_ctrl_c_stops_a_campaign_at_once_and_leaves_no_worker() -> None:
@@ -290,10 +304,10 @@ def test_the_report_lists_every_safe_field_that_stalled_or_did_not_settle() -> N
 
 
 def test_a_hard_campaign_runs_the_generators_fields_in_2d_and_3d(tmp_path: Path) -> None:
-    """--kind hard: --fields of tools/campaign/hard.py's fields in each dimension, their own
-    sets with an arrival rate, and a lagging one saved runs as it ran."""
+    """--kind hard: --fields of tools/campaign/hard.py's fields, half in each dimension, their
+    own sets with an arrival rate, and a lagging one saved runs as it ran."""
     code, rep = _campaign(
-        "--kind", "hard", "--fields", "2", "--jobs", "1", "--save-lagging", str(tmp_path)
+        "--kind", "hard", "--fields", "4", "--jobs", "1", "--save-lagging", str(tmp_path)
     )  # fmt: skip
     assert code == 0, rep["failures"]
     assert set(rep["sets"]) == {"hard/2d", "hard/3d"}

@@ -11,6 +11,7 @@ import itertools
 import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -139,6 +140,42 @@ def _rate(part: int, whole: int) -> str:
     return f"{part}/{whole} ({100 * part / whole:.1f} %)" if whole else "—"
 
 
+# What every column of :func:`render`'s tables means, in the order they are printed.
+COLUMNS = (
+    ("fields", "fields run in the set"),
+    ("collided", "fields with a contact: an overlap deeper than the contact slack, "
+     "between ticks too"),
+    ("obstacle, agent", "of those, fields with an agent-obstacle / agent-agent contact"),
+    ("clearance min, p01, p05, p50", "least distance from an obstacle's edge over all fields, "
+     "and its percentiles over fields, m"),
+    ("separation min", "least distance between two agents in any field, m"),
+    ("guard margin, sep. margin", "least clearance − ρ and least separation − 2R, m (≥ 0 "
+     "under the filter's theorem)"),
+    ("converged", "fields whose formation error came within the tolerance at some tick"),
+    ("≤ bound", "of those, within the Theorem 1 bound; max t/bound: the worst ratio"),
+    ("settled", "fields within the tolerance at the last tick"),
+    ("σ > 1", "fields where Algorithm 1 contracted the formation"),
+    ("A3 by σ", "fields where that contraction brought a desired distance to ≤ 2 r_max "
+     "(Assumption 3 under the agreed σ)"),
+    ("A2 in run", "fields where, at some tick, an evading agent and all its neighbours evaded "
+     "together (Assumption 2 as the paper states it)"),
+    ("Ω episodes", "evasive episodes (Algorithm 2), summed over fields"),
+    ("filter active", "share of agent-ticks the safety filter changed the command"),
+    ("stalled, stalls, longest", "fields / episodes where an agent was held still by the "
+     "filter > 0.5 s, and the longest"),
+    ("livelocked, longest", "fields where an agent moved without getting closer to its slot "
+     "for 10 s, and the longest such stretch"),
+    ("leader at goal", "fields whose leader ended within R of its last waypoint"),
+    ("arrived", "leader home and every follower within R of its slot, to the end"),
+)  # fmt: skip
+
+
+def legend() -> str:
+    """The columns of :func:`render`'s tables, one line each."""
+    width = max(len(name) for name, _ in COLUMNS)
+    return "\n".join(f"  {name:<{width}}  {what}" for name, what in COLUMNS)
+
+
 def render(rep: dict[str, Any]) -> str:
     """Three tables a person reads: safety, convergence, liveness; then the fields to look at."""
     safety = [
@@ -179,25 +216,21 @@ def render(rep: dict[str, Any]) -> str:
     for mode, s in rep["sets"].items():
         if mode in BREACHES and s["safety"] == "filter":
             lines.append(f"{mode:<12} breaks {s['breaks']}: {BREACHES[mode].what}")
-    notes = (
-        "margins: least clearance − ρ and least separation − 2R over whole steps (≥ 0 under "
-        "the filter's theorem); settled: error ≤ tolerance at the end; stalled: fields where an "
-        "agent was held by the filter > 0.5 s; livelocked: moving without getting closer to its "
-        "slot; arrived: leader home and formation in place to the end (docs/campaign.md)"
-    )
+    notes = "R: separation/2, the arrival tolerance; distances over whole steps (docs/campaign.md)"
     if any(mode.endswith("/paper") for mode in rep["sets"]):
         notes += "; /paper: the same fields, filter off"
     if any(mode in HARD_MODES for mode in rep["sets"]):
         notes += "; hard/2d, hard/3d: the adversarial generator's fields (--kind hard)"
+    lines.extend(["columns:", legend()])
     lines.append(notes)
     lines.append(
         f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "
         f"({rep['fields_per_s']} fields/s; {rep['cpu_s_per_field']} CPU s per field)"
     )
     if rep["lagging"]:
-        lines.append(
-            f"{len(rep['lagging'])} safe fields to look at (--save-lagging DIR keeps them):"
-        )
+        files = [g["file"] for g in rep["lagging"] if g.get("file")]
+        where = f"kept in {Path(files[0]).parent}" if files else "--save-lagging DIR keeps them"
+        lines.append(f"{len(rep['lagging'])} safe fields to look at ({where}):")
     for g in rep["lagging"][:LAGGING_SHOWN]:
         lines.append(f"  {g['set']:<12} seed {g['seed']:>6}: {'; '.join(_lag(g))}")
     if len(rep["lagging"]) > LAGGING_SHOWN:

@@ -203,12 +203,14 @@ def tasks(
     """``fields`` inside fields with seeds seed, seed+1, …, then ``outside`` fields per
     breach with the same seeds; each once per ``safety`` mode ("filter", "paper"): the same
     field, run with and without the safety filter. ``hard``: instead ``fields`` hard fields
-    (tools/campaign/hard.py) in 2-D and as many in 3-D, with the filter."""
+    (tools/campaign/hard.py) with the filter, half in 2-D (one more if odd), half in 3-D, each
+    half with seeds seed, seed+1, …"""
     if hard:
+        halves = (fields - fields // 2, fields // 2)
         return [
             Task(base.source, base.name, seed + k, mode, options)
-            for mode in HARD_MODES
-            for k in range(fields)
+            for mode, half in zip(HARD_MODES, halves, strict=True)
+            for k in range(half)
         ]
     out = []
     for mode in ("inside", *(BREACHES if outside else ())):

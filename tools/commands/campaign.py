@@ -16,6 +16,7 @@ import click
 from shoal.bus.runtime import exit_on_signals
 from shoal.tools.campaign.cluster import ClusterError, run_on_dask
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
+from shoal.tools.campaign.hard import HARD_MODES
 from shoal.tools.campaign.people import (
     MODELS,
     PeopleOptions,
@@ -84,9 +85,23 @@ def _count(text: str) -> tuple[int, int]:
     "--base",
     help="Scenario the fields are drawn around.  [default: obstacles; with --people: crossing]",
 )
-@click.option("--fields", "count", default=100, help="Fields inside the assumptions.")
-@click.option("--outside/--no-outside", default=True, help="Also run fields outside them.")
-@click.option("--outside-fields", default=20, help="Fields per broken assumption.")
+@click.option(
+    "--fields",
+    "count",
+    default=100,
+    type=click.IntRange(min=1),
+    help="Fields to run: inside the assumptions (--kind hard: hard fields, half in 2-D, half "
+    "in 3-D).  [default: 100]",
+)
+@click.option(
+    "--outside/--no-outside",
+    default=False,
+    help="Also run --outside-fields fields for each assumption broken on purpose.",
+)
+@click.option(
+    "--outside-fields", default=20, show_default=True, help="With --outside: fields per broken "
+    "assumption.",
+)  # fmt: skip
 @click.option("--seed", default=0, help="Seed of the first field; field k has seed SEED+k.")
 @click.option("--jobs", default=os.cpu_count() or 1, help="Worker processes.")
 @click.option(
@@ -158,9 +173,9 @@ def _count(text: str) -> tuple[int, int]:
     type=click.Choice(["around", "hard"]),
     default="around",
     show_default=True,
-    help="around: fields around BASE, inside and outside the assumptions; hard: the adversarial "
-    "generator's admissible fields, --fields of them in 2-D and as many in 3-D "
-    "(docs/campaign.md, Hard fields).",
+    help="around: fields around BASE, inside the assumptions (and, with --outside, outside "
+    "them); hard: the adversarial generator's admissible fields, half of --fields in 2-D and "
+    "half in 3-D (docs/campaign.md, Hard fields).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def campaign(
@@ -190,8 +205,9 @@ def campaign(
 ) -> None:
     """Run many random obstacle fields through the reference simulator, in parallel.
 
-    Fields inside the paper's assumptions (every load-time check passes) and, with
-    --outside, fields that each break one (docs/campaign.md). Reports collisions, clearance
+    --fields N runs N fields inside the paper's assumptions (every load-time check passes);
+    --outside adds --outside-fields fields for each assumption broken on purpose
+    (docs/campaign.md). Reports collisions, clearance
     and convergence per set, and the filter's activity and stalls. Exit status 1 if any inside
     field collides: that falsifies the guarantee (with --safety paper, the paper's
     Corollary 1). Outside collisions are data. 2 if a field could not be drawn.
@@ -228,13 +244,15 @@ def campaign(
     modes = ("filter", "paper") if safety == "both" else (safety,)
     todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes, hard=hard)
     if hard and not as_json:
-        click.echo(f"{len(todo)} runs: {count} hard fields in 2-D and {count} in 3-D", err=True)
-    elif not as_json:  # said up front: --fields counts the inside fields only
-        sets = f"{count} inside the assumptions"
+        two = sum(HARD_MODES[t.mode] == 2 for t in todo)
+        click.echo(f"{len(todo)} runs: {two} hard fields in 2-D and {len(todo) - two} in 3-D",
+                   err=True)  # fmt: skip
+    elif not as_json:  # said up front, before the first field runs
+        sets = f"{count} fields inside the assumptions"
         if outside:
             sets += f" and {outside_fields} for each of the {len(BREACHES)} broken ones"
         runs = f", each {' and '.join(modes)}" if len(modes) > 1 else ""
-        hint = "" if not outside else " (--no-outside: inside only)"
+        hint = "" if outside else " (--outside: also fields that break one on purpose)"
         click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
     start = time.perf_counter()
     label = f"{len(todo)} hard fields" if hard else f"{len(todo)} fields around {scn.name}"
