@@ -40,7 +40,7 @@ def walker(
 
 def test_a_standing_obstacle_after_a_moving_one_is_named_by_its_own_index() -> None:
     data = with_(base(), obstacles=[walker([5, 8], [5, 9]), {"centre": [-3, 3.3], "radius": 0.5}])
-    message = r"^agents\[1\]\.initial: starts inside obstacles\[1\]$"
+    message = r"^agents\[1\]\.offset: agent 2 starts inside obstacles\[1\]$"  # no initial: offset
     with pytest.raises(ScenarioError, match=message):
         scenario_from_dict(data)
 
@@ -136,7 +136,8 @@ def test_a_final_slot_inside_a_guard_circle_is_refused() -> None:
     with pytest.raises(ScenarioError, match=message) as info:
         scenario_from_dict(post([17, 4.1]))  # agent 2's slot is (17, 3)
     assert info.value.field == "agents[1].offset"
-    with pytest.raises(ScenarioError, match=r"^agents\[1\]\.offset: .* agent 2 lies -0\.3 m"):
+    inside = r"^agents\[1\]\.offset: .* agent 2 lies inside obstacles\[0\] by 0\.3 m"
+    with pytest.raises(ScenarioError, match=inside):
         scenario_from_dict(post([17, 3.2], 0.5))  # in the obstacle itself
 
 

@@ -8,6 +8,7 @@ import math
 import re
 import warnings
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -128,13 +129,13 @@ ASSUMPTION_CASES = {  # number, scenario, field, problem
     "3-after-contraction": (3, edit("reshape", [{"at": 5.0, "scale": 3.0}]), "agents[",
         ".* not more than 2 r_max = 2 m"),
     "4-leg-through": (4, edit("obstacles", [{"centre": [10, 0.5], "radius": 1.0}]),
-        "leader.waypoints[0]", "the leg from waypoint 0 passes -0.5 m from the edge"),
+        "leader.waypoints[0]", "the leg from waypoint 0 passes inside obstacles\\[0\\] by 0.5 m"),
     "4-leg-within-margin": (4, edit("obstacles", [{"centre": [10, 1.1], "radius": 1.0}]),
         "leader.waypoints[0]", "the leg .* 0.1 m .* within the safety margin 0.2 m$"),
     "4-second-leg": (4, edit("leader.waypoints", [[0, 0], [20, 0], [20, 20]], edit("obstacles", [
         {"centre": [20.5, 12], "radius": 1.0}])), "leader.waypoints[1]", "the leg from waypoint 1"),
     "4-sinusoid": (4, edit("obstacles", [{"centre": [2.5, 2.0], "radius": 0.5}], sinusoid()),
-        "leader.sinusoid", "the path passes -0.5 m from the edge of obstacles.0."),
+        "leader.sinusoid", "the path passes inside obstacles.0. by 0.5 m"),
 }  # fmt: skip
 
 
@@ -226,7 +227,7 @@ FIELD_CASES = [
     (edit("control.alpha", 0.0), "control.alpha", "must be > 0"),
     (edit("agent_radius", -1), "agent_radius", "must be ≥ 0, got -1.0"),
     (edit("obstacles.0.radius", 0), "obstacles[0].radius", "must be > 0"),
-    (edit("leader.speed", DELETE), "leader.speed", "must be a number, got None"),
+    (edit("leader.speed", DELETE), "leader.speed", "missing \\(or empty\\): a number is needed"),
     (edit("duration", 0.001), "duration", "0.001 s is shorter than one step dt = 0.01 s"),
     (edit("agents.2.offset", [1, 2, 3]), "agents[2].offset", "must be a list of 2 numbers"),
     (edit("agents.2.offset", [-3, -3], base3d()), "agents[2].offset",
@@ -245,7 +246,8 @@ FIELD_CASES = [
      "d̄ = 1.25 m must exceed the largest guard radius r_max \\+ ρ \\+ ε = 1.25 m"),
     (edit("obstacles", [*base()["obstacles"], {"centre": [12, 4], "radius": 1.0}]), "obstacles[1]",
      "overlaps obstacles\\[0\\]"),
-    (edit("agents.2.initial", [10, 4.5]), "agents[2].initial", "starts inside obstacles\\[0\\]"),
+    (edit("agents.2.initial", [10, 4.5]), "agents[2].initial",
+     "agent 3 starts inside obstacles\\[0\\]"),
     (edit("reshape", [{"at": 5.0, "scale": 2.0}, {"at": 4.0}]), "reshape[1].at",
      "reshapes must be listed in time order"),
     (edit("leader.sinusoid", sinusoid()["leader"]["sinusoid"]), "leader",
@@ -400,3 +402,20 @@ def test_mutated_base_raises_only_scenario_error(path: str, value: Any) -> None:
     if path == "seed" and isinstance(value, int) and value < 0:
         return  # a known bug, pinned in CRASHES
     _only_scenario_errors(scenario_from_dict, edit(path, value, FULL))
+
+
+def test_a_missing_block_says_missing_and_a_syntax_error_names_the_file(tmp_path: Path) -> None:
+    """Not `graph: must be a mapping, got None`, and not `in "<unicode string>"`."""
+    empty = tmp_path / "no-graph.yaml"
+    empty.write_text(
+        "agents: [{offset: [0, 0]}, {offset: [1, 0]}]\n"
+        "leader: {waypoints: [[0, 0], [5, 0]], speed: 1}\ngraph:\n"
+    )
+    with pytest.raises(ScenarioError, match=r"^graph: missing \(or empty\): a mapping is needed"):
+        load_scenario(empty)
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("dim: 2\nagents: [\n  {offset: [0, 0]\n")
+    with pytest.raises(ScenarioError, match="not valid YAML") as info:
+        load_scenario(broken)
+    assert f'in "{broken}", line 3' in str(info.value)
+    assert "<unicode string>" not in str(info.value)

@@ -77,6 +77,20 @@ def _named(s: Scenario, o: int) -> str:
     return f"obstacles[{s.standing_ids[o]}]"
 
 
+def _from_edge(distance: float, thing: str) -> str:
+    """ "0.5 m from the edge of obstacles[0]", or for a point inside it "inside obstacles[0] by
+    0.9 m from its edge": a negative distance read as the error it is."""
+    if distance < 0:
+        return f"inside {thing} by {-distance:.3g} m from its edge"
+    return f"{distance:.3g} m from the edge of {thing}"
+
+
+def _start_field(s: Scenario, i: int) -> str:
+    """The key that sets where agent i + 1 starts, as the file spells it: its ``initial``, or
+    without one its ``offset`` (it starts at the path's start + offset + initial_noise)."""
+    return f"agents[{i}].initial" if s.agents[i].given_initial else f"agents[{i}].offset"
+
+
 def _followers(ids: set[int]) -> str:
     return ", ".join(str(i + 1) for i in sorted(ids))
 
@@ -139,8 +153,8 @@ def _assumption4(s: Scenario) -> None:
                 raise AssumptionError(
                     4,
                     f"leader.waypoints[{k}]",
-                    f"the leg from waypoint {k} passes {clear:.3g} m from the edge of "
-                    f"{_named(s, o)}, within the safety margin {margin} m",
+                    f"the leg from waypoint {k} passes {_from_edge(clear, _named(s, o))}, "
+                    f"within the safety margin {margin} m",
                 )
         return
     for o in range(len(radii)):
@@ -149,7 +163,7 @@ def _assumption4(s: Scenario) -> None:
             raise AssumptionError(
                 4,
                 "leader.sinusoid",
-                f"the path passes {clear:.3g} m from the edge of {_named(s, o)}, "
+                f"the path passes {_from_edge(clear, _named(s, o))}, "
                 f"within the safety margin {margin} m",
             )
 
@@ -184,7 +198,7 @@ def _waypoints_reachable(s: Scenario, path: Waypoints) -> None:
             raise AssumptionError(
                 4,
                 f"leader.waypoints[{k}]",
-                f"the waypoint is {dist[o]:.3g} m from the edge of {_named(s, o)}, within "
+                f"the waypoint is {_from_edge(dist[o], _named(s, o))}, within "
                 f"2ρ + ε = {keep:.3g} m: the leader can go round an obstacle on its path, but "
                 "not reach a waypoint this close to one",
             )
@@ -239,12 +253,13 @@ def _starts_clear(s: Scenario) -> None:
         dist = np.linalg.norm(centres - pos, axis=1) - radii
         o = int(np.argmin(dist))
         if dist[o] <= s.agent_radius:
-            raise ScenarioError(f"agents[{i}].initial", f"starts inside {_named(s, o)}")
+            raise ScenarioError(_start_field(s, i), f"agent {i + 1} starts inside {_named(s, o)}")
         if dist[o] < keep:
             raise ScenarioError(
-                f"agents[{i}].initial",
-                f"starts {dist[o]:.3g} m from the edge of {_named(s, o)}, inside its guard "
-                f"circle (ρ = {keep} m): the safety filter needs every agent to start outside",
+                _start_field(s, i),
+                f"agent {i + 1} starts {dist[o]:.3g} m from the edge of {_named(s, o)}, inside "
+                f"its guard circle (ρ = {keep} m): the safety filter needs every agent to start "
+                "outside",
             )
 
 
@@ -327,8 +342,8 @@ def _final_slots_clear(s: Scenario) -> None:
         o = int(np.argmin(clear[i]))
         raise ScenarioError(
             f"agents[{i + 1}].offset",
-            f"the final slot of agent {i + 2} lies {clear[i, o]:.3g} m from the edge of "
-            f"{_named(s, o)}, inside its guard circle ρ = {rho} m: the safety filter keeps the "
+            f"the final slot of agent {i + 2} lies {_from_edge(clear[i, o], _named(s, o))}, "
+            f"inside its guard circle ρ = {rho} m: the safety filter keeps the "
             "agent out of it, so the formation can never arrive in its final shape",
         )
 
@@ -402,7 +417,7 @@ def _safety(s: Scenario) -> None:
         gap = norm(starts[i] - starts[j])
         if gap < s.separation:
             raise ScenarioError(
-                f"agents[{j}].initial",
+                _start_field(s, j),
                 f"agents {i + 1} and {j + 1} start {gap:.3g} m apart, closer than the "
                 f"separation {s.separation} m the safety filter keeps",
             )

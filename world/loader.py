@@ -9,6 +9,7 @@ documented in docs/scenarios.md.
 
 from __future__ import annotations
 
+import io
 import math
 import re
 import reprlib
@@ -69,15 +70,24 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         raise ScenarioError(
             "scenario", f"no file {str(path)!r} and no built-in of that name ({known})"
         )
-    return parse_scenario(path.read_text(encoding="utf-8"), default_name=path.stem)
+    return parse_scenario(
+        path.read_text(encoding="utf-8"), default_name=path.stem, source_name=str(path)
+    )
 
 
-def parse_scenario(text: str, *, default_name: str = "scenario") -> Scenario:
-    """Parse and validate YAML text."""
+def parse_scenario(
+    text: str, *, default_name: str = "scenario", source_name: str | None = None
+) -> Scenario:
+    """Parse and validate YAML text; ``source_name`` (the file) names where a YAML syntax
+    error is."""
     if _flow_depth(text) > _DEEPEST_FLOW:
         raise ScenarioError("yaml", f"not valid YAML: [ or {{ nested over {_DEEPEST_FLOW} deep")
+    stream: str | io.StringIO = text
+    if source_name is not None:  # PyYAML's marks name a stream by its `name`
+        stream = io.StringIO(text)
+        stream.name = source_name
     try:
-        data = yaml.safe_load(text)
+        data = yaml.safe_load(stream)
     except yaml.YAMLError as exc:
         raise ScenarioError("yaml", f"not valid YAML: {exc}") from None
     except (ValueError, AttributeError, IndexError, KeyError, TypeError, OverflowError) as exc:
@@ -177,7 +187,14 @@ def _no_unknown(data: Mapping[str, Any], known: set[str], where: str) -> None:
             )
 
 
+def _missing(field: str, kind: str) -> ScenarioError:
+    """The error for a field the file does not give (absent, or a key with nothing after it)."""
+    return ScenarioError(field, f"missing (or empty): {kind} is needed here")
+
+
 def _number(value: Any, field: str) -> float:
+    if value is None:
+        raise _missing(field, "a number")
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ScenarioError(field, f"must be a number, got {_shown(value)}")
     if isinstance(value, int) and abs(value) > _LARGEST:
@@ -204,6 +221,8 @@ def _non_negative(value: Any, field: str) -> float:
 
 
 def _integer(value: Any, field: str) -> int:
+    if value is None:
+        raise _missing(field, "an integer")
     if isinstance(value, bool) or not isinstance(value, int):
         raise ScenarioError(field, f"must be an integer, got {_shown(value)}")
     if abs(value) >= 2**63:  # YAML's 1:0:0:… (base 60) makes any size; str() refuses 4,300 digits
@@ -218,18 +237,24 @@ def _string(value: Any, field: str) -> str:
 
 
 def _vector(value: Any, field: str, dim: int) -> Vector:
+    if value is None:
+        raise _missing(field, f"a list of {dim} numbers")
     if not isinstance(value, list | tuple) or len(value) != dim:
         raise ScenarioError(field, f"must be a list of {dim} numbers, got {_shown(value)}")
     return tuple(_number(v, f"{field}[{k}]") for k, v in enumerate(value))
 
 
 def _mapping(value: Any, field: str) -> Mapping[str, Any]:
+    if value is None:
+        raise _missing(field, "a mapping")
     if not isinstance(value, Mapping):
         raise ScenarioError(field, f"must be a mapping, got {_shown(value)}")
     return value
 
 
 def _list(value: Any, field: str) -> list[Any]:
+    if value is None:
+        raise _missing(field, "a list")
     if not isinstance(value, list):
         raise ScenarioError(field, f"must be a list, got {_shown(value)}")
     return value
@@ -346,7 +371,9 @@ def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tupl
             initial = _vector(entry["initial"], f"{where}.initial", dim)
         else:
             initial = tuple(float(x) for x in start + np.asarray(offset) + jitter)
-        agents.append(AgentSpec(agent_id=k + 1, initial=initial, offset=offset))
+        given = k > 0 and "initial" in entry
+        spec = AgentSpec(agent_id=k + 1, initial=initial, offset=offset, given_initial=given)
+        agents.append(spec)
     return tuple(agents)
 
 

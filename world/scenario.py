@@ -44,11 +44,13 @@ class Obstacle:
 
 @dataclass(frozen=True, slots=True)
 class AgentSpec:
-    """One agent: where it starts and its desired offset δ_i from the leader."""
+    """One agent: where it starts and its desired offset δ_i from the leader;
+    ``given_initial``: its start is the file's ``initial`` (else path start + δ_i + noise)."""
 
     agent_id: int
     initial: Vector
     offset: Vector
+    given_initial: bool = False
 
 
 # Realtime: ticks one round of Algorithm 1 may take. An agent acts on the freshest state it has
