@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from shoal.tools.bench.table import LOCKSTEP_COLUMNS, render_bench
 from shoal.tools.cli import main
 
 
@@ -19,6 +20,7 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["bench", "--sizes", "3", "--ticks", "60", "--out", str(out)])
     assert result.exit_code == 0, result.output
     figures = json.loads(out.read_text())
+    assert result.stdout == render_bench(figures) + "\n"  # tables on the terminal, JSON in --out
     (row,) = figures["lockstep"]
     assert row["agents"] == 3 and row["ticks"] == 60
     assert row["floor_ticks_per_s"] > 0 and row["lockstep_ticks_per_s"] > 0
@@ -43,7 +45,9 @@ def test_bench_measures_every_figure_beside_its_floor(tmp_path: Path) -> None:
 @pytest.mark.integration
 def test_repeated_pairs_report_medians_and_every_pair() -> None:
     """Pairs alternate their order; the row's figures are the pairs' medians."""
-    result = CliRunner().invoke(main, ["bench", "--sizes", "2", "--ticks", "30", "--repeats", "3"])
+    result = CliRunner().invoke(
+        main, ["bench", "--sizes", "2", "--ticks", "30", "--repeats", "3", "--json"]
+    )
     assert result.exit_code == 0, result.output
     (row,) = json.loads(result.stdout)["lockstep"]
     pairs = row["pairs"]
@@ -119,3 +123,30 @@ def test_capacity_options_are_checked() -> None:
         result = CliRunner().invoke(main, ["bench", "--capacity", *args])
         assert result.exit_code == 2, (args, result.output)
         assert "Invalid value" in result.output, args
+
+
+def test_the_bench_table_shows_each_size_beside_its_floor_and_explains_its_columns() -> None:
+    cpu = {"agent": 10.0, "world": 5.0, "logger": 3.0, "router": 2.0, "monitor": 1.0}
+    row = {
+        "agents": 5, "ticks": 400, "floor_ticks_per_s": 900.0, "lockstep_ticks_per_s": 300.0,
+        "floor_over_lockstep": 3.0, "latency_p50_ms": 1.25, "latency_p99_ms": 4.5,
+        "steal_floor": 0.01, "steal_lockstep": 0.034,
+        "cpu_us_per_tick": {"floor": {**cpu, "total": 61.0}, "lockstep": {**cpu, "total": 2500.0}},
+    }  # fmt: skip
+    shown = render_bench({
+        "lockstep": [row], "startup_s": {"5": 1.5},
+        "realtime_5_agents": {"ticks_per_s": 100.0, "latency_p50_ms": 1.0,
+                              "latency_p99_ms": 2.0, "missed_deadlines": 0},
+        "agent_peak_rss_mb": {"max": 40.0, "median": 39.0, "processes": 5},
+        "agent_pss_mb": {"max": 12.0, "median": 11.0, "processes": 5},
+    })  # fmt: skip
+    lines = shown.splitlines()
+    header = lines[1].split("  ")
+    assert [h.strip() for h in header if h.strip()][:5] == [
+        "agents", "ticks", "floor t/s", "shoal t/s", "floor/shoal"
+    ]  # fmt: skip
+    assert lines[2].split() == ["5", "400", "900.0", "300.0", "3.00×", "1.25,", "4.50",
+                                "2500", "(61)", "3.4", "%"]  # fmt: skip
+    for name, _what in LOCKSTEP_COLUMNS:
+        assert any(line.strip().startswith(name) for line in lines), name  # explained
+    assert "start-up (every agent up)   5 agents 1.5 s" in shown

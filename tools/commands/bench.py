@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,14 +14,16 @@ from shoal.tools.bench.capacity import LADDER, RATES, SECONDS, capacity
 from shoal.tools.bench.drops import bench_drops
 from shoal.tools.bench.filter import bench_filter
 from shoal.tools.bench.swarm import bench as run_bench
+from shoal.tools.bench.table import render_bench, render_filter, render_rows
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
 
 @click.command()
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of tables.")
 @click.option("--sizes", default="5,10,20,50", help="Formation sizes, comma-separated.")
 @click.option("--ticks", default=400, help="Ticks per lockstep run (halved above 20 agents).")
 @click.option(
-    "--out", type=click.Path(dir_okay=False, path_type=Path), help="Also write JSON here."
+    "--out", type=click.Path(dir_okay=False, path_type=Path), help="Also write the JSON here."
 )
 @click.option(
     "--drops",
@@ -68,6 +71,7 @@ from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
     "agent-ticks (default 0: none at all).",
 )
 def bench(
+    as_json: bool,
     sizes: str,
     ticks: int,
     out: Path | None,
@@ -88,7 +92,8 @@ def bench(
     realtime command latency and memory per agent process; or, with --drops, the formation
     error against the fraction of lost neighbour messages.
 
-    Prints one JSON object; progress goes to stderr.
+    Prints tables, each figure beside its floor and every column explained (--json: one JSON
+    object with every figure); progress goes to stderr.
     """
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
     if capacity_only:
@@ -103,10 +108,11 @@ def bench(
             rows = capacity(hz, sorted(set(steps)), seconds, max_miss_rate=max_miss_rate, say=_say)
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
-        _emit({"realtime_capacity": rows}, out)
+        _emit({"realtime_capacity": rows}, out, as_json,
+              lambda r: render_rows("realtime capacity", r["realtime_capacity"]))  # fmt: skip
         return
     if filter_only:
-        _emit(bench_filter(), out)
+        _emit(bench_filter(), out, as_json, render_filter)
         return
     if drops is not None:
         try:
@@ -121,7 +127,9 @@ def bench(
             )
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
-        _emit(result, out)
+        _emit(result, out, as_json, lambda r: render_rows(
+            f"formation error against lost messages ({r['scenario']}, tolerance "
+            f"{r['tolerance']:.3g} m, after {r['settle_s']:g} s)", r["runs"]))  # fmt: skip
         return
     try:
         numbers = [int(s) for s in sizes.split(",") if s.strip()]
@@ -135,7 +143,7 @@ def bench(
         raise click.ClickException(str(exc)) from None
     _say("the safety filter, per agent-tick")
     result["safety_filter"] = bench_filter()
-    _emit(result, out)
+    _emit(result, out, as_json, render_bench)
 
 
 def _numbers(text: str, kind: type[int] | type[float], hint: str) -> list[Any]:
@@ -154,8 +162,13 @@ def _say(text: str) -> None:
     click.echo(text, err=True)
 
 
-def _emit(result: dict[str, Any], out: Path | None) -> None:
+def _emit(
+    result: dict[str, Any],
+    out: Path | None,
+    as_json: bool,
+    shown: Callable[[dict[str, Any]], str],
+) -> None:
     text = json.dumps(result, indent=2)
     if out is not None:
         out.write_text(text + "\n")
-    click.echo(text)
+    click.echo(text if as_json else shown(result))
