@@ -108,7 +108,8 @@ def test_a_split_sigma_is_reported_not_hidden() -> None:
     agreed = render_summary({**base, "sigma_disagreement": 0})
     split = render_summary({**base, "sigma_disagreement": 59})
     assert "different σ" not in agreed
-    assert "4.000 (rounds 2); agents applied different σ in 59 ticks" in split
+    contracted = "4.000 (rounds 2): Algorithm 1 contracted the formation to pass a gap"
+    assert f"{contracted}; agents applied different σ in 59 ticks" in split
 
 
 def test_simulate_prints_arrival_and_the_theorems_margins() -> None:
@@ -166,3 +167,19 @@ def test_simulate_out_names_the_file_it_writes_and_never_overwrites_unasked(
     assert forced.exit_code == 0, forced.output
     nowhere = CliRunner().invoke(main, ["simulate", "sinusoid", "--out", str(tmp_path / "a/b.npz")])
     assert nowhere.exit_code == 1 and "is not a folder" in nowhere.output
+
+
+def test_summary_rows_that_could_look_like_faults_say_what_they_mean() -> None:
+    """A bound of 0 s (agents start on their slots) and Assumption 2 counted in the run read
+    as errors on a good run (issue 34)."""
+    base = json.loads(CliRunner().invoke(main, ["simulate", "passage", "--json"]).stdout)
+    rows = dict(
+        line.split(None, 1) if not line.startswith("Assumption") else line.split("  ", 1)
+        for line in render_summary(
+            {**base, "convergence_time": 0.0, "convergence_bound": 0.0,
+             "assumption2_violations": 54}
+        ).splitlines()
+    )  # fmt: skip
+    assert rows["convergence"].startswith("0.00 s: the agents started within tolerance")
+    a2 = rows["Assumption 2 in the run"].strip()
+    assert a2.startswith("54 ticks in which an evading agent and all its neighbours evaded")
