@@ -560,3 +560,29 @@ def test_an_event_that_trails_the_summary_still_reaches_the_live_view() -> None:
     assert 0.2 <= time.monotonic() - started < 30
     _trailing_events(Inbox(), keys, sink, None, within=60.0)  # an older world: no count
     assert sink.events == 2
+
+
+@pytest.mark.parametrize("verbose", [False, True])
+def test_the_servers_client_log_is_quiet_unless_verbose(
+    verbose: bool, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """A browser opened on the ws:// URL fails the handshake, and the SDK logged that into the
+    run's own output (issue 34). It logs through Python's logger `foxglove.websocket.server`
+    (pyo3-log, which asks the logger whether the level is enabled first): quiet by default,
+    `shoal -v` shows it, named."""
+    import logging
+
+    from shoal.tools.cli import quiet_libraries
+
+    sdk = logging.getLogger("foxglove.websocket.server")
+    quiet_libraries(verbose)
+    try:
+        assert sdk.isEnabledFor(logging.ERROR) is verbose
+        sdk.error("Dropping client 127.0.0.1:4000: handshake failed")
+        said = capfd.readouterr().err
+    finally:
+        quiet_libraries(False)
+    if verbose:
+        assert said == "foxglove: Dropping client 127.0.0.1:4000: handshake failed\n"
+    else:
+        assert said == ""

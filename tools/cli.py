@@ -73,5 +73,31 @@ class LazyGroup(click.Group):
     context_settings={"auto_envvar_prefix": "SHOAL", "show_default": True},
 )
 @click.version_option(package_name="shoal")
-def main() -> None:
+@click.option(
+    "-v",
+    "--verbose",
+    is_flag=True,
+    help="Show the log of the libraries shoal drives (the Foxglove server's client log).",
+)
+def main(verbose: bool) -> None:
     """Safe formation control for swarms of mobile robots (leader–follower, obstacle avoidance)."""
+    quiet_libraries(verbose)
+
+
+def quiet_libraries(verbose: bool) -> None:
+    """The Foxglove SDK logs each viewer that connects or fails its handshake (a browser opened
+    on the ws:// URL: `Dropping client …: handshake failed`) through Python's logging, which
+    printed it into the run's own output. Quiet unless --verbose, which shows it prefixed."""
+    import logging
+
+    log = logging.getLogger("foxglove")
+    log.propagate = False
+    log.handlers.clear()
+    if verbose:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("foxglove: %(message)s"))
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+    else:
+        log.addHandler(logging.NullHandler())
+        log.setLevel(logging.CRITICAL + 1)
