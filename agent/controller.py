@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Final
 
-from shoal.agent.collision import Evasion, collision_course, ray_distance
+from shoal.agent.collision import Evasion, collision_course, evasive_offset, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
@@ -252,6 +252,31 @@ class Controller:
             return (0.0,) * len(heading)
         return heading
 
+    def _reaimed(
+        self, held: Evasion, position: Vector, target: Vector, heading: Vector
+    ) -> Evasion:
+        """An episode whose follower has come to rest off its slot, re-aimed at where it wants
+        to go: u^o taken across the way from the follower to its set-point, not across a
+        heading that is gone.
+
+        u^o is perpendicular to the heading at τ_i. A follower the evasion brought to rest
+        below an obstacle that stands between it and its slot has no heading (below the
+        chatter floor) and the obstacle still in the way: the episode lasted, the set-point
+        stayed shifted by the same u^o, and the follower stood there for good, its
+        neighbours held with it (hard fields: 2 of the 12 that still did not arrive)."""
+        if any(self._direction(heading)):
+            return held
+        p = self.params
+        offset = evasive_offset(
+            position,
+            sub(target, position),
+            held.centre,
+            held.radius,
+            safety_margin=p.safety_margin,
+            epsilon=p.epsilon,
+        )
+        return Evasion(held.obstacle_id, held.centre, held.radius, offset)
+
     def _in_band(self, lag: float) -> bool:
         """Whether a follower is within the sign term's chattering band of its set-point
         (‖e_i‖∞/deg_i ≤ BUSY_BAND·β·dt), where its nominal is the chatter and says nothing of a
@@ -404,6 +429,8 @@ class Controller:
                 or ray_distance(position, heading, held.centre) > guard + p.epsilon
             ):
                 held = None
+        if held is not None and target is not None and lag > self.busy_error:
+            held = self._reaimed(held, position, target, memory.heading)
         if held is not None:
             error = evasive_error(error, len(keep), held.offset)
         v = velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)

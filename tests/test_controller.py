@@ -338,3 +338,14 @@ def test_a_follower_pressed_against_the_leader_at_its_goal_goes_round_it() -> No
     scn, traj, _gap = _kept_field("behind-the-leader")
     s = summarize(scn, traj)
     assert s.collisions == 0 and s.arrived and s.stalls == 0
+
+
+def test_an_evasion_that_brought_its_follower_to_rest_is_reaimed_at_its_slot() -> None:
+    """At rest below the obstacle it evades, the follower's u^o is taken across the way to its
+    set-point (Controller._reaimed): it goes round, and the episode ends."""
+    from shoal.world.metrics import summarize
+
+    scn, traj, _gap = _kept_field("evading-at-rest-below")
+    s = summarize(scn, traj)
+    assert s.collisions == 0 and s.arrived
+    assert not traj.omega[-round(10.0 / scn.dt) :].any()

@@ -28,14 +28,14 @@ def _field(seed: int, tmp_path: Path) -> Path:
     return path
 
 
-@pytest.mark.parametrize("seed", [1, 6])
+@pytest.mark.parametrize("seed", [1, 10])
 def test_a_filtered_lockstep_swarm_equals_the_reference_bit_for_bit(
     seed: int, tmp_path: Path
 ) -> None:
     path = _field(seed, tmp_path)
     scn = parse_scenario(path.read_text(encoding="utf-8"))
     ref = simulate(scn)
-    assert ref.filtered.sum() > 50  # the filter really acts on this field (76 and 410 ticks)
+    assert ref.filtered.sum() > 50  # the filter really acts on this field (132 and 379 ticks)
     out = tmp_path / "run.mcap"
     proc = run_cli(["run", str(path), "--json", "--no-foxglove", "--out", str(out)])
     assert proc.returncode == 0
