@@ -252,9 +252,7 @@ class Controller:
             return (0.0,) * len(heading)
         return heading
 
-    def _reaimed(
-        self, held: Evasion, position: Vector, target: Vector, heading: Vector
-    ) -> Evasion:
+    def _reaimed(self, held: Evasion, position: Vector, target: Vector, heading: Vector) -> Evasion:
         """An episode whose follower has come to rest off its slot, re-aimed at where it wants
         to go: u^o taken across the way from the follower to its set-point, not across a
         heading that is gone.
