@@ -130,8 +130,10 @@ def test_a_scenario_file_travels_inside_the_compose_file(tmp_path: Path) -> None
 def test_no_build_leaves_the_image_to_the_user() -> None:
     result = CliRunner().invoke(main, ["compose", "passage", "--no-build"])
     assert result.exit_code == 0, result.output
-    spec = yaml.safe_load(result.output)
+    spec = yaml.safe_load(result.stdout)
     assert "build" not in spec["services"]["router"]
+    assert "the image ${SHOAL_IMAGE:-shoal} must exist first" in result.stderr
+    assert "docker build -f docker/Dockerfile -t shoal ." in result.stderr
     assert len(spec["services"]) == 3 + load_scenario("passage").n
 
 

@@ -52,3 +52,10 @@ def compose(scenario: str, out: Path | None, no_build: bool) -> None:
         click.echo(
             f"wrote {out} ({scn.n} agents); run it with: docker compose -f {out} up", err=True
         )
+    if context is None:  # said on stdout's side too: a file piped away still gets the hint
+        click.echo(
+            "no build section: the image ${SHOAL_IMAGE:-shoal} must exist first; build it "
+            "from a shoal checkout with `docker build -f docker/Dockerfile -t shoal .` (or run "
+            "`shoal compose` from the checkout, whose compose file builds it)",
+            err=True,
+        )
