@@ -206,8 +206,8 @@ def run(
         raise click.ClickException(f"{why}{_where_the_log_is(plan.out)}") from None
     except SystemExit as exc:  # Ctrl-C or SIGTERM: the swarm has been stopped in order
         if plan.out.exists():
-            views = f"; no Foxglove views yet: `shoal export {plan.out}`" if foxglove else ""
-            warn(f"shoal run: interrupted{_where_the_log_is(plan.out)}{views}")
+            later = f"; no Foxglove views yet: `shoal export {plan.out}`" if foxglove else ""
+            warn(f"shoal run: interrupted{_where_the_log_is(plan.out)}{later}")
         raise SystemExit(exc.code) from None
     views = export_beside(plan.out, progress=not as_json) if foxglove else None
     summary = json_safe(result.summary)
