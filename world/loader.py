@@ -147,7 +147,7 @@ def scenario_from_dict(
         directed=directed,
         edges=edges,
         path=path,
-        obstacles=_obstacles(data.get("obstacles", []), dim),
+        obstacles=read_obstacles(data.get("obstacles", []), dim),
         reshapes=_reshapes(data.get("reshape", []), dt, duration),
         control=_control(data.get("control", {})),
         agent_radius=_non_negative(data.get("agent_radius", 0.05), "agent_radius"),
@@ -398,7 +398,9 @@ def _graph(value: Any, n: int) -> tuple[bool, tuple[tuple[int, int], ...]]:
     return directed, tuple(edges)
 
 
-def _obstacles(value: Any, dim: int) -> tuple[Obstacle, ...]:
+def read_obstacles(value: Any, dim: int) -> tuple[Obstacle, ...]:
+    """The ``obstacles`` list of a scenario, each entry validated on its own (how they sit
+    against each other and the agents is :mod:`~shoal.world.assumptions`'s)."""
     out = []
     for k, item in enumerate(_list(value, "obstacles")):
         where = f"obstacles[{k}]"

@@ -37,9 +37,9 @@ from shoal.bus.geometry import FloatArray, shaped
 from shoal.bus.path import path_position, peak_speed
 from shoal.bus.types import PathSpec, Sinusoid, Waypoints
 from shoal.world import assumptions
-from shoal.world.errors import BetaWarning, ScenarioError, ScenarioWarning, WorldError
+from shoal.world.errors import ScenarioError, ScenarioWarning, WorldError
 from shoal.world.graph import adjacency, reached_from_leader
-from shoal.world.loader import parse_scenario, scenario_from_dict
+from shoal.world.loader import parse_scenario, read_obstacles, scenario_from_dict
 from shoal.world.scenario import Obstacle, Scenario
 
 
@@ -132,43 +132,14 @@ class FieldOptions:
 
 # -- what a field breaks ------------------------------------------------------------------------
 
-# Each load-time check alone (check_assumptions stops at the first), so that a field can be shown
-# to break exactly one. The obstacle-only checks run only with obstacles, as in check_assumptions.
-_CHECKS: dict[str, Callable[[Scenario], None]] = {
-    "overlap": assumptions._obstacles_apart,
-    "A1": assumptions._assumption1,
-    "safety": assumptions._safety,
-    "slots": assumptions._slots_apart,
-}
-_OBSTACLE_CHECKS: dict[str, Callable[[Scenario], None]] = {
-    "A2": assumptions._assumption2,
-    "A3": assumptions._assumption3,
-    "A4": assumptions._assumption4,
-    "reach": assumptions._trigger_reach,
-    "starts": assumptions._starts_clear,
-    "goals": assumptions._final_slots_clear,
-}
-
 
 def breaches(s: Scenario) -> frozenset[str]:
-    """Names of the load-time checks that ``s`` fails: A1-A4, ``reach``, ``overlap``,
-    ``starts``, ``slots`` (slots closer than the separation), ``goals`` (a final slot in a
-    guard circle), and ``speed`` for |f| ≥ β. Empty for a scenario the loader accepts silently."""
-    checks = dict(_CHECKS)
-    if s.obstacles:
-        checks.update(_OBSTACLE_CHECKS)
-    failed = set()
-    for name, check in checks.items():
-        try:
-            check(s)
-        except ScenarioError:
-            failed.add(name)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", BetaWarning)
-        assumptions._beta(s)
-    if any(issubclass(w.category, BetaWarning) for w in caught):
-        failed.add("speed")
-    return frozenset(failed)
+    """Names of the load-time checks that ``s`` fails, each on its own (check_assumptions
+    stops at the first), so that a field can be shown to break exactly one: A1-A4, ``reach``,
+    ``overlap``, ``starts``, ``slots`` (slots closer than the separation), ``goals`` (a final
+    slot in a guard circle), the movers' checks, and ``speed`` for |f| ≥ β (world/assumptions.py
+    CHECKS: one list for the loader and the campaign)."""
+    return assumptions.broken_checks(s)
 
 
 def needed_contraction(s: Scenario, first: int, second: int) -> float:
@@ -200,8 +171,8 @@ def load_field(text: str) -> Scenario:
     """A field from its YAML, with every check but the obstacle-dependent assumptions.
 
     For fields that break A2, A3, A4 or the trigger reach on purpose, which the loader refuses:
-    the rest of the file is validated by the loader, the obstacles are read here (and not
-    checked against each other or the starts: :func:`breaches` tells what the field breaks).
+    the file is validated by the loader, its obstacles each on their own (not against each
+    other or the starts: :func:`breaches` tells what the field breaks).
     """
     data = yaml.safe_load(text)
     if not isinstance(data, Mapping):
@@ -210,27 +181,7 @@ def load_field(text: str) -> Scenario:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ScenarioWarning)
         bare = scenario_from_dict(rest, source=text, default_name="field")
-    return dataclasses.replace(bare, obstacles=_read_obstacles(data.get("obstacles", []), bare.dim))
-
-
-def _read_obstacles(raw: Any, dim: int) -> tuple[Obstacle, ...]:
-    if not isinstance(raw, list):
-        raise ScenarioError("obstacles", f"must be a list, got {raw!r}")
-    out = []
-    for k, o in enumerate(raw):
-        where = f"obstacles[{k}]"
-        if not isinstance(o, Mapping) or set(o) != {"centre", "radius"}:
-            raise ScenarioError(where, "must be a mapping with 'centre' and 'radius'")
-        centre, radius = o["centre"], o["radius"]
-        if not isinstance(centre, list) or len(centre) != dim:
-            raise ScenarioError(f"{where}.centre", f"must be a list of {dim} numbers")
-        values = [*centre, radius]
-        if not all(isinstance(v, int | float) and math.isfinite(v) for v in values):
-            raise ScenarioError(where, "must hold finite numbers")
-        if radius <= 0:
-            raise ScenarioError(f"{where}.radius", f"must be > 0, got {radius}")
-        out.append(Obstacle(centre=tuple(float(v) for v in centre), radius=float(radius)))
-    return tuple(out)
+    return dataclasses.replace(bare, obstacles=read_obstacles(data.get("obstacles", []), bare.dim))
 
 
 # -- drawing a field ----------------------------------------------------------------------------
