@@ -282,3 +282,15 @@ def test_moving_obstacles_are_drawn_with_their_trails_and_contacts_they_made_are
     (marks,) = [ln for ln in ax.get_lines() if ln.get_label() == "walked into by a moving obstacle"]
     assert len(marks.get_xdata()) == len(theirs)
     assert "collision" not in ax.get_title()
+
+
+def test_the_legend_lists_only_what_the_figure_draws() -> None:
+    """crossing has people and no standing obstacle, and nobody evades: no obstacle entries."""
+    legend = {
+        name: {t.get_text() for t in trajectories(view_of(name)).axes[0].get_legend().get_texts()}
+        for name in ("crossing", "obstacles")
+    }
+    drawn_only_with_obstacles = {"obstacle", "obstacle + trigger radius", "evading (Ω = 1)"}
+    assert not legend["crossing"] & drawn_only_with_obstacles
+    assert any(label.startswith("moving obstacle") for label in legend["crossing"])
+    assert drawn_only_with_obstacles <= legend["obstacles"]

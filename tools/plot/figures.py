@@ -109,13 +109,17 @@ def trajectories(view: RunView) -> Figure:
     _draw_paths(main, view, (0, 1), snapshots=True)
     for ax, axes in sides:
         _draw_paths(ax, view, axes, snapshots=False)
-    handles, _ = main.get_legend_handles_labels()
-    handles += [
-        Line2D([], [], color="0.35", marker="o", ls="", ms=9, label="obstacle"),
-        Line2D([], [], color="0.55", ls=":", label="obstacle + trigger radius"),
-        Line2D([], [], color="0.3", lw=3.5, alpha=0.45, label="evading (Ω = 1)"),
-        Line2D([], [], color="0.5", ls="--", lw=0.8, label="edge dropped (evading)"),
-    ]
+    handles, _ = main.get_legend_handles_labels()  # only what the figure draws
+    if sc.standing_ids:
+        handles += [
+            Line2D([], [], color="0.35", marker="o", ls="", ms=9, label="obstacle"),
+            Line2D([], [], color="0.55", ls=":", label="obstacle + trigger radius"),
+        ]
+    if view.traj.omega.any():
+        handles += [
+            Line2D([], [], color="0.3", lw=3.5, alpha=0.45, label="evading (Ω = 1)"),
+            Line2D([], [], color="0.5", ls="--", lw=0.8, label="edge dropped (evading)"),
+        ]
     if sc.mover_ids:
         handles.append(
             Line2D([], [], color=MOVER_COLOUR, marker="o", lw=0.9,
