@@ -25,18 +25,20 @@ import os
 import shutil
 import sys
 import sysconfig
+import tomllib
 from pathlib import Path
 
 from setuptools import Extension, setup
 
 ROOT = Path(__file__).resolve().parent
 # (folder in the repository, package) as pyproject.toml maps them.
+# Where each package's folder is in the checkout: pyproject.toml's package-dir, read from there
+# (one place for the mapping), as source folder -> path inside the package tree.
 TREE = {
-    "src/shoal": "shoal",
-    "agent": "shoal/agent",
-    "bus": "shoal/bus",
-    "world": "shoal/world",
-    "tools": "shoal/tools",
+    folder: package.replace(".", "/")
+    for package, folder in tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))[
+        "tool"
+    ]["setuptools"]["package-dir"].items()
 }
 COMPILED = [
     "shoal/bus/messages.py",

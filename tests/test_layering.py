@@ -58,3 +58,19 @@ def test_each_contract_holds_and_fails_on_a_forbidden_import(
         if contract in line and line.endswith(("KEPT", "BROKEN"))
     ]  # fmt: skip
     assert verdicts and all(v.endswith("BROKEN") for v in verdicts), broken.stdout
+
+
+def test_pyproject_lists_every_package_the_tree_holds() -> None:
+    """The package list is written once, in pyproject.toml (setup.py reads its package-dir):
+    a new subpackage left out of it would be missing from the wheel, not from a checkout."""
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    tool = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))["tool"]
+    listed = set(tool["setuptools"]["packages"])
+    found = set()
+    for package, folder in tool["setuptools"]["package-dir"].items():
+        for init in (root / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(root / folder)
+            found.add(".".join([package, *rel.parts]))
+    assert found == listed
