@@ -1,5 +1,5 @@
 """The world's and the agents' process loops on an in-memory bus (bus/memory.py): threads of one
-test, no router, no ports. The real-router integration tests (test_swarm.py and others) stay;
+test, no router, no ports. The real-router integration tests (test_run_swarm.py and others) stay;
 these pin the loops themselves: the same bits as the reference, bad input counted and dropped,
 and everything declared undeclared when a loop closes."""
 
