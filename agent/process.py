@@ -30,9 +30,9 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.messages import AgentState, Sensing
 from shoal.bus.report import pss_kb, report_body
-from shoal.bus.runtime import Arrival, Inbox, warn
+from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import AgentConfig
+from shoal.bus.types import AgentConfig, Clock
 
 
 class AgentAbort(RuntimeError):
@@ -93,7 +93,7 @@ class AgentNode(Declarations):
         except ConfigError as exc:  # decodes, but no controller can run it (dt ≤ 0, gains ≤ 0)
             raise AgentAbort(f"agent {options.agent_id}: bad configuration: {exc}") from None
         me = options.agent_id
-        if options.drop_rate > 0 and self.clock != "realtime":
+        if options.drop_rate > 0 and self.clock != Clock.REALTIME:
             raise AgentAbort(
                 f"agent {me}: --drop-rate needs the realtime clock (a lockstep run would wait "
                 "for a dropped state forever)"
@@ -103,7 +103,7 @@ class AgentNode(Declarations):
         self._held.append(bus.subscribe(k.sensing(me), self.inbox))
         self._held += [bus.subscribe(k.state(j), self.inbox) for j in self.controller.listens_to]
         self._held.append(bus.watch(k.alive_agents, self.inbox))
-        lossy = self.clock == "realtime"  # bus/links.py: a cut neighbour must not stall us
+        lossy = self.clock == Clock.REALTIME  # bus/links.py: a cut neighbour must not stall us
         self.state_out = bus.publisher(k.state(me), lossy=lossy)
         self.command_out = bus.publisher(k.command(me), lossy=lossy)
         self._held += [self.state_out, self.command_out]
@@ -124,14 +124,14 @@ class AgentNode(Declarations):
                 raise AgentAbort(
                     f"no world for run {self.options.run!r} after {self.options.start_timeout:g} s"
                 )
-            if arrival.kind == "up":
+            if arrival.kind == ArrivalKind.UP:
                 return
 
     def run(self) -> None:
         """Serve ticks until the world goes away."""
         while True:
             arrival = self.inbox.wait()
-            if arrival.kind == "down" and arrival.key == self.keys.alive_world:
+            if arrival.kind == ArrivalKind.DOWN and arrival.key == self.keys.alive_world:
                 if not self.bus.present(arrival.key):
                     return
                 warn(f"agent {self.options.agent_id}: the world's token went down but it still "
@@ -141,10 +141,10 @@ class AgentNode(Declarations):
             self._maybe_act()
 
     def _take(self, arrival: Arrival) -> None:
-        if arrival.kind in ("up", "down"):
+        if arrival.kind in (ArrivalKind.UP, ArrivalKind.DOWN):
             self._presence(arrival)
             return
-        if arrival.kind != "data":
+        if arrival.kind != ArrivalKind.DATA:
             return
         try:
             if arrival.key.endswith("/sensing"):
@@ -153,10 +153,10 @@ class AgentNode(Declarations):
                 if self.dropper.drop():
                     return  # injected loss: as if the message never came
                 state = codec.decode_state(arrival.payload)
-                if self.clock == "realtime" and self.tick < 0:
+                if self.clock == Clock.REALTIME and self.tick < 0:
                     return  # heard before our first sensing (we are rejoining): not yet usable
                 self._check_state(state, arrival.key)
-                if self.clock == "realtime":
+                if self.clock == Clock.REALTIME:
                     old = self.latest.get(state.agent_id)
                     if old is None or old.tick < state.tick:
                         self.latest[state.agent_id] = state
@@ -177,10 +177,10 @@ class AgentNode(Declarations):
         j = agent_of(arrival.key)
         if j is None or j == self.options.agent_id:
             return
-        if arrival.kind == "down":
+        if arrival.kind == ArrivalKind.DOWN:
             self.gone.add(j)
             self.latest.pop(j, None)
-        elif self.clock == "realtime":
+        elif self.clock == Clock.REALTIME:
             self.gone.discard(j)
 
     def report(self) -> dict[str, int | None]:
@@ -232,7 +232,7 @@ class AgentNode(Declarations):
             raise DecodeError(f"state of agent {state.agent_id} on another agent's key")
         if len(state.position) != self.controller.config.dim:
             raise DecodeError(f"state position has {len(state.position)} coordinates")
-        oldest = self.tick - 1 if self.clock == "lockstep" else 0
+        oldest = self.tick - 1 if self.clock == Clock.LOCKSTEP else 0
         if not oldest <= state.tick <= self.tick + 1:
             raise DecodeError(f"state of tick {state.tick} while at tick {self.tick}")
 
@@ -261,7 +261,7 @@ class AgentNode(Declarations):
             return
         sensing, state = self.pending
         needed = [j for j in self.controller.listens_to if j not in self.gone]
-        if self.clock == "realtime":
+        if self.clock == Clock.REALTIME:
             max_age = self.options.max_age
             use, ages = freshest(self.latest, needed, sensing.tick, max_age)
             self.ages.add(ages, max_age)

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from shoal.bus.types import Clock
 from shoal.tools.log.reader import read_documents, read_ticks, recorded_scenario
 from shoal.tools.log.salvage import LogError, check_log
 from shoal.tools.simulator import run
@@ -38,7 +39,7 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
     docs = read_documents(path)
     if "scenario" not in docs:
         raise VerifyError(f"{path}: no scenario recorded in the log")
-    if docs.get("summary", {}).get("clock") == "realtime":
+    if docs.get("summary", {}).get("clock") == Clock.REALTIME:
         raise VerifyError(
             f"{path}: a realtime run depends on timing, so no re-simulation can match it; "
             "only lockstep runs are verified (`shoal replay` plays this one back)"

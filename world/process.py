@@ -122,7 +122,7 @@ class World(Declarations):
             if arrival is None:
                 missing = ", ".join(sorted(wanted - self.up))
                 raise WorldAbort(f"not up after {self.options.start_timeout:g} s: {missing}")
-            if arrival.kind == "data":  # no agent can command before it has sensed tick 0
+            if arrival.kind == ArrivalKind.DATA:  # no agent can command before it has sensed tick 0
                 self._drop(f"{arrival.key}: a command before tick 0")
             else:
                 self._note_presence(arrival)
@@ -250,7 +250,7 @@ class World(Declarations):
                 arrival = self.inbox.get(timeout=self.options.answer_timeout)
                 if arrival is None:
                     raise WorldAbort(f"tick {k}: no command from agent(s) {sorted(silent)} in time")
-            if arrival.kind != "data":
+            if arrival.kind != ArrivalKind.DATA:
                 self._note_presence(arrival, tick=k)
                 silent = self._silent(k)  # an agent may have gone (or come back)
                 continue
@@ -289,11 +289,11 @@ class World(Declarations):
         i = agent_of(arrival.key)
         if i is None or arrival.key != self.keys.alive_agent(i):
             i = None  # not an agent's token (logger, monitor) or not ours
-        if arrival.kind == "up":
+        if arrival.kind == ArrivalKind.UP:
             self.up.add(arrival.key)
             if i is not None and i in self.departed and tick is not None:
                 self._back(i, tick)
-        elif arrival.kind == "down":
+        elif arrival.kind == ArrivalKind.DOWN:
             self.up.discard(arrival.key)
             if i is not None and i in self.alive and tick is not None:
                 if self.bus.present(arrival.key):
@@ -301,7 +301,7 @@ class World(Declarations):
                                 "kept")  # fmt: skip
                 else:
                     self._gone(i, tick)
-        elif arrival.kind == "refused" and i is not None:
+        elif arrival.kind == ArrivalKind.REFUSED and i is not None:
             self._event(
                 tick or 0, 3, i, f"agent {i} asked to rejoin at tick {tick}; refused (lockstep)"
             )
@@ -322,7 +322,7 @@ class World(Declarations):
         """A departed agent's token is up again: in realtime take it back (it gets sensing from
         the next tick on and moves once its first command is in); in lockstep log and ignore it
         (it normally never gets this far: its configuration query was refused)."""
-        if self.options.clock != "realtime":
+        if self.options.clock != Clock.REALTIME:
             self._event(tick, 3, i, f"agent {i} back at tick {tick}; not taken back (lockstep)")
             return
         del self.departed[i]
@@ -432,7 +432,7 @@ class _Clock:
         wall = time.monotonic() - self.start
         lat = np.asarray(self.latencies) * 1e3
         return {
-            "clock": "realtime" if self.realtime else "lockstep",
+            "clock": Clock.REALTIME if self.realtime else Clock.LOCKSTEP,
             "ticks_per_s": round(steps / wall, 2) if wall > 0 else None,
             "latency_p50_ms": round(float(np.percentile(lat, 50)), 3) if lat.size else None,
             "latency_p99_ms": round(float(np.percentile(lat, 99)), 3) if lat.size else None,

@@ -19,7 +19,7 @@ import zenoh
 
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.links import collect, publisher, subscribe, watch_presence
-from shoal.bus.runtime import Inbox, announce_ready
+from shoal.bus.runtime import ArrivalKind, Inbox, announce_ready
 from shoal.tools.log.logger import BATCH_S
 
 _TICK = struct.Struct("<i")
@@ -61,7 +61,7 @@ def floor_world(
     up: set[str] = set()
     while not wanted <= up:
         a = inbox.wait()
-        if a.kind == "up":
+        if a.kind == ArrivalKind.UP:
             up.add(a.key)
     announce_ready("floor ticking")  # a benchmark opens its CPU window here
     start = time.monotonic()
@@ -75,7 +75,7 @@ def floor_world(
             while len(answered) < agents:
                 a = inbox.wait()
                 sender = agent_of(a.key)
-                if a.kind == "data" and tick_of(a.payload) == k and sender is not None:
+                if a.kind == ArrivalKind.DATA and tick_of(a.payload) == k and sender is not None:
                     answered.add(sender)
             tick_out.put(payload(k, sizes["tick"]))
         result = {}
@@ -114,7 +114,7 @@ def _realtime(
             if a is None:
                 break
             sender = agent_of(a.key)
-            if a.kind != "data" or sender is None:
+            if a.kind != ArrivalKind.DATA or sender is None:
                 continue
             t = tick_of(a.payload)
             if t in sent_at and sender not in heard.setdefault(t, set()):
@@ -156,9 +156,9 @@ def floor_agent(
     pending = -1  # the tick sensed and not yet answered; -1 for none
     while True:
         a = inbox.wait()
-        if a.kind == "down":
+        if a.kind == ArrivalKind.DOWN:
             break
-        if a.kind != "data":
+        if a.kind != ArrivalKind.DATA:
             continue
         k = tick_of(a.payload)
         if a.key.endswith("/sensing"):
@@ -195,11 +195,11 @@ def floor_listener(session: zenoh.Session, *, run: str, role: str) -> int:
             count += 1
         if a is None:
             continue
-        if a.kind == "up":
+        if a.kind == ArrivalKind.UP:
             seen_world = True
-        elif a.kind == "down" and seen_world:
+        elif a.kind == ArrivalKind.DOWN and seen_world:
             break
-        elif a.kind == "data":
+        elif a.kind == ArrivalKind.DATA:
             count += 1
     del held, token
     return count

@@ -69,7 +69,7 @@ def run_swarms(
                 "agent_at_fault": s.get("agent_at_fault", 0),
                 "obstacle_at_fault": s.get("obstacle_at_fault", 0),
                 "min_mover_clearance": s.get("min_mover_clearance"),
-                "exact": _exact(out, field) if clock == "lockstep" else None,
+                "exact": _exact(out, field) if clock == Clock.LOCKSTEP else None,
             }
             rows.append(row)
             done(row)
@@ -117,7 +117,7 @@ def render_swarms(rep: dict[str, Any]) -> str:
         f"{rep['min_interagent_distance']:.3f} m ({rep['below_separation']} below 2R); "
         f"actuator corrections {rep['actuator_corrections']}, missed deadlines "
         f"{rep['missed_deadlines']}"
-        + (f", {rep['inexact']} not bit-exact" if rep["clock"] == "lockstep" else "")
+        + (f", {rep['inexact']} not bit-exact" if rep["clock"] == Clock.LOCKSTEP else "")
         + (f", {rep['lost_agents']} agent processes lost" if rep["lost_agents"] else "")
         + (
             f"; contacts with people: {rep['agent_at_fault']} agent at fault, "

@@ -13,7 +13,7 @@ from shoal.bus.acl import ROUTER
 from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
 from shoal.bus.links import watch_presence
-from shoal.bus.runtime import Inbox, announce_ready, exit_on_signals
+from shoal.bus.runtime import ArrivalKind, Inbox, announce_ready, exit_on_signals
 from shoal.bus.secure import Identity, Material
 from shoal.bus.zconfig import zenoh_config
 from shoal.tools.commands.options import check_run_id
@@ -96,9 +96,9 @@ def wait_for_run_end(session: zenoh.Session, keys: Keys) -> None:
     world_seen = False
     while not (world_seen and not present):
         arrival = inbox.wait()
-        if arrival.kind == "up":
+        if arrival.kind == ArrivalKind.UP:
             present.add(arrival.key)
             world_seen = world_seen or arrival.key == keys.alive_world
-        elif arrival.kind == "down":
+        elif arrival.kind == ArrivalKind.DOWN:
             present.discard(arrival.key)
     del held

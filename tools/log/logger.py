@@ -21,7 +21,7 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys
 from shoal.bus.links import collect, watch_presence
-from shoal.bus.runtime import Inbox, announce_ready, warn
+from shoal.bus.runtime import ArrivalKind, Inbox, announce_ready, warn
 from shoal.tools.log.writer import McapLog
 
 BATCH_S = 0.01  # s between two drains of what arrived
@@ -48,9 +48,9 @@ def run_logger(session: zenoh.Session, *, run: str, out: Path, overwrite: bool =
         while True:
             change = presence.get(timeout=BATCH_S)
             kind = None if change is None else change.kind
-            if kind == "up":
+            if kind == ArrivalKind.UP:
                 world_seen = True
-            elif kind == "down" and world_seen and drain_until is None:
+            elif kind == ArrivalKind.DOWN and world_seen and drain_until is None:
                 # Liveliness and data travel apart: the world's last messages (its summary)
                 # may still be on their way. Drain a little before finishing.
                 warn("logger: the world is gone; finishing the log")

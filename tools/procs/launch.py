@@ -23,7 +23,7 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.report import reports_in
-from shoal.bus.runtime import Inbox, warn
+from shoal.bus.runtime import ArrivalKind, Inbox, warn
 from shoal.bus.types import Clock
 from shoal.tools.deploy.certs import make_material
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
@@ -227,12 +227,12 @@ def _monitor(
                 arrival = inbox.get(timeout=0.2)
                 if arrival is None:
                     continue
-                if arrival.kind == "up":
+                if arrival.kind == ArrivalKind.UP:
                     agents_up.add(arrival.key)
                     if len(agents_up) == plan.agents:
                         startup = round(time.monotonic() - began, 3)
                     continue
-                if arrival.kind != "data":
+                if arrival.kind != ArrivalKind.DATA:
                     continue
                 try:
                     if arrival.key == keys.summary:
@@ -287,7 +287,7 @@ def _trailing_events(
         arrival = inbox.get(timeout=max(deadline - time.monotonic(), 0.0))
         if arrival is None:
             return
-        if arrival.kind == "data" and arrival.key == keys.event:
+        if arrival.kind == ArrivalKind.DATA and arrival.key == keys.event:
             sink.event(arrival.time_ns, arrival.payload)
 
 
@@ -309,7 +309,7 @@ def _late_summary(
     its summary is seen here first: its "run finished" event must reach the live view)."""
     deadline = time.monotonic() + within
     while (arrival := inbox.get(timeout=max(deadline - time.monotonic(), 0.0))) is not None:
-        if arrival.kind != "data":
+        if arrival.kind != ArrivalKind.DATA:
             continue
         if arrival.key == keys.summary:
             try:
