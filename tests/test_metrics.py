@@ -109,9 +109,11 @@ leader: {waypoints: [[0, 0], [0, 0]], speed: 0.5}
     got = summarize(s, traj)
     assert s.separation == 2 * s.agent_radius == 0.4
     pairs = pair_distances(traj)
-    assert int((pairs - s.separation < 1e-9).sum()) > 0  # pressed at the separation
+    # pressed at the separation, held by the filter (going nowhere, each turns right along the
+    # bisector, so they slide on it rather than sit exactly on it: bus/safety.py sidestep)
+    assert int((pairs - s.separation < 1e-4).sum()) > 100 and int(traj.filtered.sum()) > 1000
     assert got.collisions == 0
-    assert -got.contact_slack <= got.separation_margin <= 0.0
+    assert -got.contact_slack <= got.separation_margin < 1e-4
 
 
 def test_the_margins_are_the_least_distances_less_the_theorems_bounds() -> None:
