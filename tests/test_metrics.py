@@ -111,7 +111,7 @@ leader: {waypoints: [[0, 0], [0, 0]], speed: 0.5}
     pairs = pair_distances(traj)
     # pressed at the separation, held by the filter (going nowhere, each turns right along the
     # bisector, so they slide on it rather than sit exactly on it: bus/safety.py sidestep)
-    assert int((pairs - s.separation < 1e-4).sum()) > 100 and int(traj.filtered.sum()) > 1000
+    assert int((pairs - s.separation < 1e-4).sum()) > 50 and int(traj.filtered.sum()) > 1000
     assert got.collisions == 0
     assert -got.contact_slack <= got.separation_margin < 1e-4
 
