@@ -252,7 +252,7 @@ class Controller:
             return (0.0,) * len(heading)
         return heading
 
-    def _reaimed(self, held: Evasion, position: Vector, target: Vector, heading: Vector) -> Evasion:
+    def _reaimed(self, held: Evasion, position: Vector, target: Vector) -> Evasion:
         """An episode whose follower has come to rest off its slot, re-aimed at where it wants
         to go: u^o taken across the way from the follower to its set-point, not across a
         heading that is gone.
@@ -262,8 +262,6 @@ class Controller:
         chatter floor) and the obstacle still in the way: the episode lasted, the set-point
         stayed shifted by the same u^o, and the follower stood there for good, its
         neighbours held with it (hard fields: 2 of the 12 that still did not arrive)."""
-        if any(self._direction(heading)):
-            return held
         p = self.params
         offset = evasive_offset(
             position,
@@ -422,13 +420,13 @@ class Controller:
         if held is not None and target is not None:
             guard = held.radius + p.safety_margin
             heading = self._direction(memory.heading)
+            away = not self._in_band(lag)
             if segment_distance(held.centre, position, target) > guard and (
-                lag > self.busy_error
-                or ray_distance(position, heading, held.centre) > guard + p.epsilon
+                away or ray_distance(position, heading, held.centre) > guard + p.epsilon
             ):
                 held = None
-        if held is not None and target is not None and lag > self.busy_error:
-            held = self._reaimed(held, position, target, memory.heading)
+            elif away and not any(heading):
+                held = self._reaimed(held, position, target)
         if held is not None:
             error = evasive_error(error, len(keep), held.offset)
         v = velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)

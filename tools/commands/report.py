@@ -18,12 +18,9 @@ def _fmt(value: Any, unit: str = "", digits: int = 3) -> str:
 
 def render_summary(summary: dict[str, Any]) -> str:
     """A short, aligned, human-readable block of the figures that matter."""
-    conv = summary["convergence_time"]
     bound = summary["convergence_bound"]  # None (JSON's inf): β ≤ the leader's speed
     if bound is not None and not math.isfinite(bound):
         bound = None
-    within = conv is not None and bound is not None and conv <= bound
-    shown = f"bound {_fmt(bound, ' s', 2)}" if bound is not None else "no bound: β ≤ leader speed"
     rows = [
         (
             "scenario",
@@ -33,7 +30,7 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("collisions", _fmt(summary["collisions"])),
         ("min clearance", _fmt(summary["min_clearance"], " m")),
         ("min inter-agent distance", _fmt(summary["min_interagent_distance"], " m")),
-        ("convergence", _convergence(summary, conv, bound, shown, within)),
+        ("convergence", _convergence(summary, bound)),
         ("final formation error", _fmt(summary["final_formation_error"], " m")),
         ("agreed σ", _sigma(summary)),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
@@ -140,10 +137,13 @@ def _arrival(summary: dict[str, Any]) -> str:
     return f"no: {cause} ({detail.get(str(cause), follower)}; tolerance {tol})"
 
 
-def _convergence(summary: dict[str, Any], conv: Any, bound: Any, shown: str, within: bool) -> str:
-    """When the formation error first came within tolerance, against Theorem 1's bound; a
-    bound of 0 s says the agents started within tolerance, not that something failed."""
-    tol = _fmt(summary["tolerance"], " m")
+def _convergence(summary: dict[str, Any], bound: float | None) -> str:
+    """When the formation error first came within tolerance, against Theorem 1's ``bound``
+    (None: no bound); a bound of 0 s says the agents started within tolerance, not that
+    something failed."""
+    conv, tol = summary["convergence_time"], _fmt(summary["tolerance"], " m")
+    within = conv is not None and bound is not None and conv <= bound
+    shown = f"bound {_fmt(bound, ' s', 2)}" if bound is not None else "no bound: β ≤ leader speed"
     if bound == 0.0 and conv == 0.0:
         return f"0.00 s: the agents started within tolerance ({tol}) of their slots"
     return f"{_fmt(conv, ' s', 2)} ({shown}, tolerance {tol}{', within bound' if within else ''})"
