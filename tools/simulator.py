@@ -22,7 +22,7 @@ from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
-from shoal.world.trajectory import Trajectory
+from shoal.world.trajectory import Recorder, Trajectory
 
 Progress = Callable[[int], None]
 
@@ -96,38 +96,14 @@ def run(scenario: Scenario) -> Iterator[Tick]:
 
 def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
     """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
-    n, dim, steps = scenario.n, scenario.dim, scenario.steps
-    positions = np.empty((steps + 1, n, dim))
-    velocities = np.empty((steps, n, dim))
-    omega = np.zeros((steps, n), dtype=bool)
-    filtered = np.zeros((steps, n), dtype=bool)
-    bid, sigma, theta = (np.empty((steps, n)) for _ in range(3))
-    positions[0] = scenario.initial_positions
-    m = len(scenario.mover_ids)
-    movers = np.empty((steps + 1, m, dim)) if m else None
-    mover_velocities = np.empty((steps, m, dim)) if m else None
+    recorder = Recorder(scenario.dt, scenario.n, scenario.dim, scenario.steps,
+                        movers=len(scenario.mover_ids))  # fmt: skip
+    after = scenario.initial_positions
     for t in run(scenario):
-        k = t.tick
-        if movers is not None and mover_velocities is not None:
-            movers[k] = t.movers.centres
-            mover_velocities[k] = t.movers.velocities
-            movers[k + 1] = movers[k] + scenario.dt * mover_velocities[k]
-        velocities[k] = t.velocities
-        positions[k + 1] = t.next_positions
-        filtered[k] = t.filtered
-        for i, s in enumerate(t.states):
-            omega[k, i], bid[k, i], sigma[k, i], theta[k, i] = s.omega, s.bid, s.sigma, s.theta
+        announced = ((s.omega, s.bid, s.sigma, s.theta) for s in t.states)
+        recorder.add(t.positions, t.velocities, announced, t.filtered,
+                     t.movers.centres, t.movers.velocities)  # fmt: skip
+        after = t.next_positions
         if progress is not None:
-            progress(k)
-    return Trajectory(
-        dt=scenario.dt,
-        positions=positions,
-        velocities=velocities,
-        omega=omega,
-        bid=bid,
-        sigma=sigma,
-        theta=theta,
-        filtered=filtered,
-        movers=movers,
-        mover_velocities=mover_velocities,
-    )
+            progress(t.tick)
+    return recorder.finish(after)

@@ -33,7 +33,7 @@ from shoal.world.kinematics import actuate, integrate
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.scenario import Scenario
-from shoal.world.trajectory import Trajectory
+from shoal.world.trajectory import Recorder
 from shoal.world.watch import LeaderWatch
 
 
@@ -140,10 +140,7 @@ class World(Declarations):
         field = Field.of(s)
         crowd = field.start(s)
         positions = s.initial_positions
-        history: dict[str, list[Any]] = {
-            name: []
-            for name in ("pos", "vel", "omega", "bid", "sigma", "theta", "filtered", "mc", "mw")
-        }
+        recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids))
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
         latest = self.latest
@@ -173,24 +170,12 @@ class World(Declarations):
             corrected += fixed
             row = _record(k, positions, velocities, reports, self.alive, crowd)
             self.tick_out.put(codec.encode_tick(row))
-            for name, value in zip(history, _columns(row), strict=True):
-                history[name].append(value)
+            recorder.record(row)
             positions = integrate(positions, velocities, s.dt)
             crowd = field.advance(crowd)
             if self.aborted is not None:
                 break
-        history["pos"].append(positions)
-        traj = Trajectory(
-            dt=s.dt,
-            positions=np.asarray(history["pos"]),
-            velocities=np.asarray(history["vel"]),
-            omega=np.asarray(history["omega"], dtype=bool),
-            bid=np.asarray(history["bid"]),
-            sigma=np.asarray(history["sigma"]),
-            theta=np.asarray(history["theta"]),
-            filtered=np.asarray(history["filtered"], dtype=bool).reshape(-1, s.n),
-            **_mover_arrays(history, crowd, field.moving),
-        )
+        traj = recorder.finish(positions, crowd.centres)
         summary = {
             **summarize(s, traj, clock=self.options.clock).as_dict(),
             **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
@@ -380,24 +365,6 @@ def _record(
         mover_centres=crowd.centres,
         mover_velocities=crowd.velocities,
     )
-
-
-def _columns(r: TickRecord) -> tuple[Any, ...]:
-    return (
-        r.positions, r.velocities, r.omega, r.bid, r.sigma, r.theta, r.filtered,
-        r.mover_centres, r.mover_velocities,
-    )  # fmt: skip
-
-
-def _mover_arrays(history: dict[str, list[Any]], crowd: MoverState, moving: bool) -> dict[str, Any]:
-    """The trajectory's mover arrays from the tick records, the centres after the last tick
-    (``crowd``, advanced as the world advanced it) appended; empty in a run where nothing moves."""
-    if not moving:
-        return {}
-    return {
-        "movers": np.asarray([*history["mc"], crowd.centres], dtype=np.float64),
-        "mover_velocities": np.asarray(history["mw"], dtype=np.float64),
-    }
 
 
 class _Clock:

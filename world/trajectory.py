@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, BinaryIO, ClassVar
@@ -47,25 +47,12 @@ class Trajectory:
     def from_records(cls, records: Sequence[TickRecord], dt: float) -> Trajectory:
         """The world's tick records (in tick order) as a trajectory; the positions after the
         last record are integrated exactly as the world does (positions + dt · velocities)."""
-        positions = np.asarray([r.positions for r in records], dtype=np.float64)
-        velocities = np.asarray([r.velocities for r in records], dtype=np.float64)
-        movers = mover_velocities = None
-        if records[0].mover_centres:
-            centres = np.asarray([r.mover_centres for r in records], dtype=np.float64)
-            mover_velocities = np.asarray([r.mover_velocities for r in records], dtype=np.float64)
-            movers = np.concatenate([centres, (centres[-1] + dt * mover_velocities[-1])[None]])
-        return cls(
-            dt=dt,
-            positions=np.concatenate([positions, (positions[-1] + dt * velocities[-1])[None]]),
-            velocities=velocities,
-            omega=np.asarray([r.omega for r in records], dtype=bool),
-            bid=np.asarray([r.bid for r in records], dtype=np.float64),
-            sigma=np.asarray([r.sigma for r in records], dtype=np.float64),
-            theta=np.asarray([r.theta for r in records], dtype=np.float64),
-            filtered=np.asarray([r.filtered for r in records], dtype=bool),
-            movers=movers,
-            mover_velocities=mover_velocities,
-        )
+        first = records[0]
+        n, dim = len(first.positions), len(first.positions[0])
+        recorder = Recorder(dt, n, dim, len(records), movers=len(first.mover_centres))
+        for r in records:
+            recorder.record(r)
+        return recorder.finish()
 
     @property
     def ticks(self) -> int:
@@ -136,4 +123,87 @@ class Trajectory:
                 a.shape == b.shape and a.tobytes() == b.tobytes()
                 for a, b in zip(self.arrays(), other.arrays(), strict=True)
             )
+        )
+
+
+class Recorder:
+    """Builds a :class:`Trajectory` tick by tick, the one way every run is recorded (the
+    reference simulator, the world process, a log's tick records). Arrays are allocated for
+    ``steps`` ticks; a run that ends early keeps the ticks it recorded. ``movers``: how many
+    moving obstacles the run has (0: the trajectory has no mover arrays)."""
+
+    def __init__(self, dt: float, n: int, dim: int, steps: int, *, movers: int = 0) -> None:
+        self.dt = dt
+        self.ticks = 0
+        self._positions = np.empty((steps + 1, n, dim))
+        self._velocities = np.empty((steps, n, dim))
+        self._omega = np.zeros((steps, n), dtype=bool)
+        self._filtered = np.zeros((steps, n), dtype=bool)
+        self._bid, self._sigma, self._theta = (np.empty((steps, n)) for _ in range(3))
+        self._movers = np.empty((steps + 1, movers, dim)) if movers else None
+        self._mover_velocities = np.empty((steps, movers, dim)) if movers else None
+
+    def add(
+        self,
+        positions: Any,
+        velocities: Any,
+        announced: Iterable[tuple[bool, float, float, float]],
+        filtered: Sequence[bool],
+        mover_centres: Any = (),
+        mover_velocities: Any = (),
+    ) -> None:
+        """The next tick: positions (n, dim) at its start, velocities (n, dim) held during it,
+        each agent's announced (Ω, bid, σ, θ) in agent order, where its filter was active, and
+        the moving obstacles' centres at its start and velocities over it."""
+        k = self.ticks
+        self._positions[k] = positions
+        self._velocities[k] = velocities
+        self._filtered[k] = filtered
+        for i, (omega, bid, sigma, theta) in enumerate(announced):
+            self._omega[k, i], self._bid[k, i] = omega, bid
+            self._sigma[k, i], self._theta[k, i] = sigma, theta
+        if self._movers is not None and self._mover_velocities is not None:
+            self._movers[k] = mover_centres
+            self._mover_velocities[k] = mover_velocities
+        self.ticks = k + 1
+
+    def record(self, r: TickRecord) -> None:
+        """The next tick from the world's record of it."""
+        announced = zip(r.omega, r.bid, r.sigma, r.theta, strict=True)
+        self.add(r.positions, r.velocities, announced, r.filtered,
+                 r.mover_centres, r.mover_velocities)  # fmt: skip
+
+    def finish(self, positions: Any = None, movers: Any = None) -> Trajectory:
+        """The trajectory of the ticks added. ``positions`` (n, dim) and ``movers`` (m, dim):
+        where the agents and the moving obstacles are after the last tick; None integrates
+        them from the last tick (start + dt · velocity), as the world does."""
+        k = self.ticks
+        if k == 0:
+            raise ValueError("a trajectory needs at least one tick")
+        dt = self.dt
+        self._positions[k] = (
+            self._positions[k - 1] + dt * self._velocities[k - 1]
+            if positions is None
+            else positions
+        )
+        mover_arrays: dict[str, FloatArray] = {}
+        if self._movers is not None and self._mover_velocities is not None:
+            self._movers[k] = (
+                self._movers[k - 1] + dt * self._mover_velocities[k - 1]
+                if movers is None
+                else movers
+            )
+            mover_arrays = {
+                "movers": self._movers[: k + 1], "mover_velocities": self._mover_velocities[:k]
+            }  # fmt: skip
+        return Trajectory(
+            dt=dt,
+            positions=self._positions[: k + 1],
+            velocities=self._velocities[:k],
+            omega=self._omega[:k],
+            bid=self._bid[:k],
+            sigma=self._sigma[:k],
+            theta=self._theta[:k],
+            filtered=self._filtered[:k],
+            **mover_arrays,
         )
