@@ -320,3 +320,25 @@ def test_a_hard_campaign_runs_the_generators_fields_in_2d_and_3d(tmp_path: Path)
 def test_a_hard_campaign_is_refused_with_options_it_cannot_honour() -> None:
     result = CliRunner().invoke(main, ["campaign", "--kind", "hard", "--safety", "paper"])
     assert result.exit_code == 2 and "--kind hard" in result.output
+
+
+def test_a_campaign_with_the_boundary_layer_says_so_with_its_figures() -> None:
+    """--boundary-layer K runs every field with φ = K·β·dt; the report carries K and the text
+    says it is not the paper's law."""
+    args = [
+        "--kind",
+        "hard",
+        "--fields",
+        "2",
+        "--seed",
+        "73",
+        "--jobs",
+        "1",
+        "--boundary-layer",
+        "2",
+    ]
+    code, rep = _campaign(*args)
+    assert code == 0 and rep["boundary_layer"] == 2.0
+    text = CliRunner().invoke(main, ["campaign", *args]).output
+    assert "boundary layer φ = 2·β·dt" in text
+    assert rep["sets"]["hard/2d"]["arrived"] == 1  # field 73 arrives with it (test_hard_fields)

@@ -4,6 +4,7 @@ on the leader's legs — in 2-D and 3-D."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import warnings
@@ -13,6 +14,7 @@ import pytest
 
 from shoal.bus.geometry import segment_distance
 from shoal.tools.campaign.hard import RHO, SLACK, hard_field
+from shoal.tools.campaign.runner import judge
 from shoal.world.errors import BetaWarning
 from shoal.world.loader import parse_scenario
 
@@ -67,3 +69,25 @@ def test_the_fields_carry_the_hard_cases(fields: list) -> None:
 def test_a_dimension_other_than_2_or_3_is_refused() -> None:
     with pytest.raises(ValueError, match="dim must be 2 or 3"):
         hard_field(0, 4)
+
+
+def test_the_boundary_layer_option_runs_the_same_field_with_phi_k_beta_dt() -> None:
+    plain, layered = hard_field(73, 2), hard_field(73, 2, boundary_layer=2.0)
+    c = plain.control
+    assert layered.control.boundary_layer == pytest.approx(2.0 * c.beta * plain.dt, abs=1e-4)
+    assert plain.control.boundary_layer == 0.0
+    assert layered.obstacles == plain.obstacles and layered.agents == plain.agents
+    assert dataclasses.replace(layered.control, boundary_layer=0.0) == c
+
+
+def test_a_sampled_sign_law_cycle_that_never_arrives_arrives_with_the_boundary_layer() -> None:
+    """Hard field 73 (2-D): β·dt = 0.28 m against an arrival tolerance R = 0.2 m, so the paper's
+    sampled sign(e) keeps a follower jumping across its slot for good (named a deadlock: it
+    makes no progress). sat(e/φ) with φ = 2·β·dt halves the error each tick instead."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sign, layered = hard_field(73, 2), hard_field(73, 2, boundary_layer=2.0)
+    assert sign.control.beta * sign.dt > 0.2
+    first, second = judge(sign, "hard/2d"), judge(layered, "hard/2d")
+    assert (first.arrived, first.not_arrived) == (False, "deadlock")
+    assert (second.arrived, second.collided) == (True, False)

@@ -115,6 +115,8 @@ class FieldOptions:
     initial_noise : uniform ± noise of the agents' starts about their slots (per axis).
     tries : candidates drawn per obstacle before giving up with :class:`FieldError`.
     safety : replaces the base's ``control.safety`` ("filter" or "paper": Algorithm 2 alone).
+    boundary_layer : K > 0 runs every field with the optional boundary layer φ = K·β·dt,
+        sat(e/φ) in place of the paper's sign(e) (docs/campaign.md, Arrival); 0 keeps the base's.
     """
 
     length: float = 14.0
@@ -128,6 +130,7 @@ class FieldOptions:
     initial_noise: float = 1.0
     tries: int = 200
     safety: str | None = None
+    boundary_layer: float = 0.0
 
 
 # -- what a field breaks ------------------------------------------------------------------------
@@ -307,6 +310,11 @@ def _skeleton(
             **{f.name: _plain(getattr(c, f.name)) for f in dataclasses.fields(c)},
             **({} if opts.sigma_max is None else {"sigma_max": opts.sigma_max}),
             **({} if opts.safety is None else {"safety": opts.safety}),
+            **(
+                {"boundary_layer": round(opts.boundary_layer * c.beta * base.dt, 6)}
+                if opts.boundary_layer > 0
+                else {}
+            ),
         },
         "graph": {"directed": base.directed, "edges": [list(e) for e in base.edges]},
         "agents": [{"offset": list(a.offset)} for a in base.agents],

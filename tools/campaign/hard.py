@@ -51,8 +51,10 @@ RHO = 0.2  # m: the safety margin ρ of every hard field (the loader's default)
 _TAG = 0x4A8D  # keeps this generator's random streams apart from fields.py's
 
 
-def hard_field(seed: int, dim: int = 2) -> Scenario:
-    """Hard field number ``seed`` in ``dim`` dimensions (2 or 3)."""
+def hard_field(seed: int, dim: int = 2, *, boundary_layer: float = 0.0) -> Scenario:
+    """Hard field number ``seed`` in ``dim`` dimensions (2 or 3). ``boundary_layer`` K > 0:
+    the same field with the optional boundary layer φ = K·β·dt (sat(e/φ) in place of the
+    paper's sign(e)); the field drawn does not depend on it."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim}")
     for sub in range(SKELETONS):
@@ -61,6 +63,9 @@ def hard_field(seed: int, dim: int = 2) -> Scenario:
         if data is None:
             continue
         data["obstacles"] = _obstacles(data, rng)
+        if boundary_layer > 0:
+            c = data["control"]
+            c["boundary_layer"] = _round(boundary_layer * c["beta"] * data["dt"])
         text = _header(seed, dim) + yaml.safe_dump(data, sort_keys=False, width=100)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ScenarioWarning)

@@ -221,6 +221,11 @@ def render(rep: dict[str, Any]) -> str:
         notes += "; /paper: the same fields, filter off"
     if any(mode in HARD_MODES for mode in rep["sets"]):
         notes += "; hard/2d, hard/3d: the adversarial generator's fields (--kind hard)"
+    if rep.get("boundary_layer"):
+        notes += (
+            f"; every field with the boundary layer φ = {rep['boundary_layer']:g}·β·dt, "
+            "sat(e/φ) in place of the paper's sign(e)"
+        )
     lines.extend(["columns:", legend()])
     lines.append(notes)
     lines.append(

@@ -175,7 +175,8 @@ def run_task(task: Task) -> Outcome:
     start = time.process_time()
     try:
         if task.mode in HARD_MODES:
-            field = hard_field(task.seed, HARD_MODES[task.mode])
+            k = task.options.boundary_layer
+            field = hard_field(task.seed, HARD_MODES[task.mode], boundary_layer=k)
         else:
             field = make_field(_base(task.base, task.base_name), task.seed, task.mode, task.options)
     except WorldError as exc:
