@@ -12,6 +12,7 @@ import contextlib
 import dataclasses
 import reprlib
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass, fields
 from operator import itemgetter
 from typing import Any, TypeVar
 
@@ -148,35 +149,69 @@ def _plain_vector(value: Any) -> bool:
     return type(value) is list and 2 <= len(value) <= 3 and _finite(*value)
 
 
-_SENSING_FIELDS = itemgetter("tick", "pos", "oid", "oc", "or", "aid", "ap")
-_STATE_FIELDS = itemgetter("id", "tick", "pos", "omega", "bid", "sigma", "theta")
-
-
 def _map(value: Any, where: str) -> Mapping[str, Any]:
     if not isinstance(value, dict):
         raise DecodeError(f"{where}: expected a map, got {type(value).__name__}")
     return value
 
 
-# -- world → agent ------------------------------------------------------------------------------
+# -- each message once --------------------------------------------------------------------------
 
 
-def encode_sensing(s: Sensing) -> bytes:
-    body: dict[str, Any] = {
-        "tick": s.tick,
-        "pos": list(s.position),
-        "oid": list(s.obstacle_ids),
-        "oc": [list(c) for c in s.obstacle_centres],
-        "or": list(s.obstacle_radii),
-        "aid": list(s.agent_ids),
-        "ap": [list(p) for p in s.agent_positions],
+def _as_list(value: Any) -> list[Any]:
+    return list(value)
+
+
+def _as_lists(value: Any) -> list[list[Any]]:
+    return [list(v) for v in value]
+
+
+@dataclass(frozen=True, slots=True)
+class Kind:
+    """How one type travels: ``decode`` checks a wire value (raising :class:`DecodeError` that
+    names ``where``) and returns it as the message holds it; ``encode`` makes the message's value
+    msgpack-able (None: as it is)."""
+
+    decode: Callable[[Any, str], Any]
+    encode: Callable[[Any], Any] | None = None
+
+
+INT, BOOL, STR, FLOAT = Kind(_int), Kind(_bool), Kind(_str), Kind(_float)
+INTS, BOOLS, FLOATS = Kind(_ints, _as_list), Kind(_bools, _as_list), Kind(_floats, _as_list)
+VECTOR, VECTORS = Kind(_vector, _as_list), Kind(_vectors, _as_lists)
+
+
+@dataclass(frozen=True, slots=True)
+class WireField:
+    """One field of a message: its ``key`` in the msgpack map, the message attribute ``name``
+    it carries, and its :class:`Kind`. ``sparse``: written only when not empty, so that a run
+    without the feature keeps its bytes (moving obstacles)."""
+
+    key: str
+    name: str
+    kind: Kind
+    sparse: bool = False
+
+
+def _encode_fields(table: tuple[WireField, ...], message: Any) -> dict[str, Any]:
+    body: dict[str, Any] = {}
+    for f in table:
+        value = getattr(message, f.name)
+        if f.sparse and not value:
+            continue
+        body[f.key] = value if f.kind.encode is None else f.kind.encode(value)
+    return body
+
+
+def _decode_fields(table: tuple[WireField, ...], m: Mapping[str, Any]) -> dict[str, Any]:
+    """The message's attributes from map ``m``, field by field, each checked (a sparse field
+    that is absent is left to the message's default)."""
+    return {
+        f.name: _get(m, f.key, f.kind.decode) for f in table if not (f.sparse and f.key not in m)
     }
-    if s.movers:  # only in runs with moving obstacles: a static run's bytes are unchanged
-        body["mv"] = [
-            [m.obstacle_id, list(m.centre), m.radius, list(m.velocity), m.speed_cap]
-            for m in s.movers
-        ]
-    return _pack("sensing", body)
+
+
+# -- world → agent ------------------------------------------------------------------------------
 
 
 def _movers(value: Any, where: str) -> tuple[Mover, ...]:
@@ -202,6 +237,29 @@ def _movers(value: Any, where: str) -> tuple[Mover, ...]:
     return tuple(out)
 
 
+def _movers_body(movers: tuple[Mover, ...]) -> list[list[Any]]:
+    return [
+        [m.obstacle_id, list(m.centre), m.radius, list(m.velocity), m.speed_cap] for m in movers
+    ]
+
+
+SENSING = (
+    WireField("tick", "tick", INT),
+    WireField("pos", "position", VECTOR),
+    WireField("oid", "obstacle_ids", INTS),
+    WireField("oc", "obstacle_centres", VECTORS),
+    WireField("or", "obstacle_radii", FLOATS),
+    WireField("aid", "agent_ids", INTS),
+    WireField("ap", "agent_positions", VECTORS),
+    WireField("mv", "movers", Kind(_movers, _movers_body), sparse=True),
+)
+_SENSING_FIELDS = itemgetter(*(f.key for f in SENSING if not f.sparse))
+
+
+def encode_sensing(s: Sensing) -> bytes:
+    return _pack("sensing", _encode_fields(SENSING, s))
+
+
 def decode_sensing(data: bytes) -> Sensing:
     m = _unpack("sensing", data)
     fast = _sensing_fast(m)
@@ -211,16 +269,7 @@ def decode_sensing(data: bytes) -> Sensing:
         s = dataclasses.replace(fast, movers=_movers(m["mv"], "sensing.mv"))
         _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
         return s
-    s = Sensing(
-        tick=_get(m, "tick", _int),
-        position=_get(m, "pos", _vector),
-        obstacle_ids=_get(m, "oid", _ints),
-        obstacle_centres=_get(m, "oc", _vectors),
-        obstacle_radii=_get(m, "or", _floats),
-        agent_ids=_get(m, "aid", _ints),
-        agent_positions=_get(m, "ap", _vectors),
-        movers=_movers(m["mv"], "sensing.mv") if "mv" in m else (),
-    )
+    s = Sensing(**_decode_fields(SENSING, m))
     if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
         raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
     if len(s.agent_ids) != len(s.agent_positions):
@@ -266,16 +315,16 @@ def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
 # -- agent → neighbours -------------------------------------------------------------------------
 
 
-def _state_body(s: AgentState) -> dict[str, Any]:
-    return {
-        "id": s.agent_id,
-        "tick": s.tick,
-        "pos": list(s.position),
-        "omega": s.omega,
-        "bid": s.bid,
-        "sigma": s.sigma,
-        "theta": s.theta,
-    }
+STATE = (
+    WireField("id", "agent_id", INT),
+    WireField("tick", "tick", INT),
+    WireField("pos", "position", VECTOR),
+    WireField("omega", "omega", BOOL),
+    WireField("bid", "bid", FLOAT),
+    WireField("sigma", "sigma", FLOAT),
+    WireField("theta", "theta", FLOAT),
+)
+_STATE_FIELDS = itemgetter(*(f.key for f in STATE))
 
 
 def _state_from(m: Mapping[str, Any]) -> AgentState:
@@ -289,19 +338,11 @@ def _state_from(m: Mapping[str, Any]) -> AgentState:
             and _finite(bid, sigma, theta)
         ):
             return AgentState(i, t, tuple(pos), omega, bid, sigma, theta)  # the common case
-    return AgentState(
-        agent_id=_get(m, "id", _int),
-        tick=_get(m, "tick", _int),
-        position=_get(m, "pos", _vector),
-        omega=_get(m, "omega", _bool),
-        bid=_get(m, "bid", _float),
-        sigma=_get(m, "sigma", _float),
-        theta=_get(m, "theta", _float),
-    )
+    return AgentState(**_decode_fields(STATE, m))
 
 
 def encode_state(s: AgentState) -> bytes:
-    return _pack("state", _state_body(s))
+    return _pack("state", _encode_fields(STATE, s))
 
 
 def decode_state(data: bytes) -> AgentState:
@@ -311,23 +352,27 @@ def decode_state(data: bytes) -> AgentState:
 # -- agent → world ------------------------------------------------------------------------------
 
 
+# A command travels with the state it was computed from: its id and tick are the state's.
+COMMAND = (WireField("vel", "velocity", VECTOR), WireField("flt", "filtered", BOOL))
+
+
 def encode_report(state: AgentState, command: Command) -> bytes:
     """The command of a tick, carrying what the agent announced that tick (for the record)."""
-    return _pack(
-        "cmd", {**_state_body(state), "vel": list(command.velocity), "flt": command.filtered}
-    )
+    return _pack("cmd", {**_encode_fields(STATE, state), **_encode_fields(COMMAND, command)})
 
 
 def decode_report(data: bytes) -> tuple[AgentState, Command]:
     m = _unpack("cmd", data)
     state = _state_from(m)
     vel: Any = m.get("vel")
-    velocity = tuple(vel) if _plain_vector(vel) else _get(m, "vel", _vector)
-    _same_dim(len(state.position), (velocity,), "cmd.vel")
     flt: Any = m.get("flt")
-    filtered = flt if type(flt) is bool else _get(m, "flt", _bool)
-    command = Command(state.agent_id, state.tick, velocity, filtered)
-    return state, command
+    if _plain_vector(vel) and type(flt) is bool:  # the common case
+        velocity, filtered = tuple(vel), flt
+    else:
+        checked = _decode_fields(COMMAND, m)
+        velocity, filtered = checked["velocity"], checked["filtered"]
+    _same_dim(len(state.position), (velocity,), "cmd.vel")
+    return state, Command(state.agent_id, state.tick, velocity, filtered)
 
 
 # -- configuration ------------------------------------------------------------------------------
@@ -371,10 +416,8 @@ def _path_from(value: Any, where: str) -> PathSpec | None:
     raise DecodeError(f"{where}.type: unknown path type {_shown.repr(kind)}")
 
 
-_PARAMS = (
-    "alpha", "beta", "sensing_radius", "trigger_radius", "epsilon", "safety_margin",
-    "heading_tau", "sigma_max", "boundary_layer", "speed_limit", "separation",
-)  # fmt: skip
+# The float parameters, in ControlParams' order; `rounds` and `safety` travel after them.
+_PARAMS = tuple(f.name for f in fields(ControlParams) if f.type == "float")
 SAFETY_MODES = tuple(Safety)
 
 
@@ -460,39 +503,27 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
 # -- world → all --------------------------------------------------------------------------------
 
 
+TICK = (
+    WireField("tick", "tick", INT),
+    WireField("pos", "positions", VECTORS),
+    WireField("vel", "velocities", VECTORS),
+    WireField("omega", "omega", BOOLS),
+    WireField("bid", "bid", FLOATS),
+    WireField("sigma", "sigma", FLOATS),
+    WireField("theta", "theta", FLOATS),
+    WireField("alive", "alive", BOOLS),
+    WireField("flt", "filtered", BOOLS),
+    WireField("mc", "mover_centres", VECTORS, sparse=True),  # only in runs with moving obstacles
+    WireField("mw", "mover_velocities", VECTORS, sparse=True),
+)
+
+
 def encode_tick(t: TickRecord) -> bytes:
-    body: dict[str, Any] = {
-        "tick": t.tick,
-        "pos": [list(p) for p in t.positions],
-        "vel": [list(v) for v in t.velocities],
-        "omega": list(t.omega),
-        "bid": list(t.bid),
-        "sigma": list(t.sigma),
-        "theta": list(t.theta),
-        "alive": list(t.alive),
-        "flt": list(t.filtered),
-    }
-    if t.mover_centres:  # only in runs with moving obstacles
-        body["mc"] = [list(c) for c in t.mover_centres]
-        body["mw"] = [list(w) for w in t.mover_velocities]
-    return _pack("tick", body)
+    return _pack("tick", _encode_fields(TICK, t))
 
 
 def decode_tick(data: bytes) -> TickRecord:
-    m = _unpack("tick", data)
-    t = TickRecord(
-        tick=_get(m, "tick", _int),
-        positions=_get(m, "pos", _vectors),
-        velocities=_get(m, "vel", _vectors),
-        omega=_get(m, "omega", _bools),
-        bid=_get(m, "bid", _floats),
-        sigma=_get(m, "sigma", _floats),
-        theta=_get(m, "theta", _floats),
-        alive=_get(m, "alive", _bools),
-        filtered=_get(m, "flt", _bools),
-        mover_centres=_get(m, "mc", _vectors) if "mc" in m else (),
-        mover_velocities=_get(m, "mw", _vectors) if "mw" in m else (),
-    )
+    t = TickRecord(**_decode_fields(TICK, _unpack("tick", data)))
     if len(t.mover_centres) != len(t.mover_velocities):
         raise DecodeError("tick: mover centres and velocities differ in length")
     n = len(t.positions)
@@ -505,18 +536,20 @@ def decode_tick(data: bytes) -> TickRecord:
     return t
 
 
+EVENT = (
+    WireField("tick", "tick", INT),
+    WireField("level", "level", INT),
+    WireField("agent", "agent", INT),
+    WireField("text", "text", STR),
+)
+
+
 def encode_event(e: Event) -> bytes:
-    return _pack("event", {"tick": e.tick, "level": e.level, "agent": e.agent, "text": e.text})
+    return _pack("event", _encode_fields(EVENT, e))
 
 
 def decode_event(data: bytes) -> Event:
-    m = _unpack("event", data)
-    return Event(
-        tick=_get(m, "tick", _int),
-        level=_get(m, "level", _int),
-        agent=_get(m, "agent", _int),
-        text=_get(m, "text", _str),
-    )
+    return Event(**_decode_fields(EVENT, _unpack("event", data)))
 
 
 def encode_document(kind: str, body: Mapping[str, Any]) -> bytes:

@@ -3,7 +3,9 @@ DecodeError), and the Zenoh configuration's precedence."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 from typing import Any
 
 import msgpack
@@ -15,6 +17,7 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError, WireError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.messages import AgentState, Command, Event, Sensing, TickRecord
+from shoal.bus.types import ControlParams
 from shoal.bus.zconfig import zenoh_config
 from shoal.world.loader import builtin_names, load_scenario
 
@@ -136,3 +139,32 @@ def test_zenoh_config_precedence(monkeypatch: pytest.MonkeyPatch) -> None:
         zenoh_config(mode="client")
     with pytest.raises(WireError, match="zenoh mode"):
         zenoh_config(mode="satellite")
+
+
+def _doc_row(kind: str) -> str:
+    wire = (Path(__file__).parents[1] / "docs" / "wire.md").read_text(encoding="utf-8")
+    rows = [line for line in wire.splitlines() if line.startswith(f"| `{kind}` |")]
+    assert len(rows) == 1, kind
+    return rows[0]
+
+
+@pytest.mark.parametrize(
+    ("kind", "table"),
+    [("sensing", codec.SENSING), ("state", codec.STATE), ("cmd", codec.COMMAND),
+     ("tick", codec.TICK), ("event", codec.EVENT)],
+)  # fmt: skip
+def test_the_docs_list_every_field_of_every_message_in_wire_order(kind: str, table: Any) -> None:
+    """docs/wire.md's field list follows the codec's one table per message: every key, in the
+    order the encoder writes them, and a message's attributes are exactly the table's names."""
+    row = _doc_row(kind)
+    at = [row.find(f"`{f.key}`") for f in table]
+    assert -1 not in at and at == sorted(at), [f.key for f in table]
+    message = {"sensing": Sensing, "state": AgentState, "tick": TickRecord, "event": Event}
+    if kind in message:
+        assert [f.name for f in table] == [f.name for f in dataclasses.fields(message[kind])]
+
+
+def test_the_docs_list_every_control_parameter_a_config_carries() -> None:
+    row = _doc_row("config")
+    for name in (*(f.name for f in dataclasses.fields(ControlParams)),):
+        assert f"`{name}`" in row, name
