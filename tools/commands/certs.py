@@ -7,8 +7,8 @@ from pathlib import Path
 import click
 
 from shoal.bus.acl import agent_name
-from shoal.tools.commands.options import check_run_id
 from shoal.tools.deploy.certs import DEFAULT_HOSTS, CertError, make_material
+from shoal.tools.procs.children import check_run_id
 
 
 @click.command()

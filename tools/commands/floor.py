@@ -19,7 +19,7 @@ def floor() -> None:
 
 
 def _session(connect: str, what: str) -> zenoh.Session:
-    return open_session(client_config((connect,), None, False), what)
+    return open_session(client_config((connect,)), what)
 
 
 @floor.command("world")

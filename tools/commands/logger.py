@@ -2,38 +2,27 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import Any
 
 import click
 
 from shoal.bus.acl import LOGGER
 from shoal.bus.runtime import exit_on_signals
-from shoal.tools.commands.options import bus_options
 from shoal.tools.log.logger import run_logger
-from shoal.tools.procs.session import client_config, open_session
+from shoal.tools.procs.children import LoggerSpec, click_options
+from shoal.tools.procs.session import client_session
 
 
 @click.command()
-@click.option(
-    "--out", "-o", type=click.Path(dir_okay=False, path_type=Path), required=True, help="MCAP file."
-)
-@click.option("--force", is_flag=True, help="Overwrite OUT if it exists.")
-@bus_options
-def logger(
-    out: Path,
-    force: bool,
-    run_id: str,
-    connect: tuple[str, ...],
-    zenoh_config: Path | None,
-    multicast: bool,
-    secure: Path | None,
-) -> None:
+@click_options(LoggerSpec)
+def logger(**params: Any) -> None:
     """Record every message of run RUN into OUT until the run ends (or SIGINT/SIGTERM)."""
     exit_on_signals()
-    conf = client_config(connect, zenoh_config, multicast, secure, LOGGER)
-    with open_session(conf, "logger") as session:
+    spec = LoggerSpec.of(params)
+    out = spec.out
+    with client_session(spec, LOGGER, "logger") as session:
         try:
-            count = run_logger(session, run=run_id, out=out, overwrite=force)
+            count = run_logger(session, run=spec.run_id, out=out, overwrite=spec.force)
         except FileExistsError:
             raise click.ClickException(f"{out} exists; pass --force to overwrite it") from None
         except OSError as exc:

@@ -73,7 +73,7 @@ def replay(
             view = stack.enter_context(live_view(scenario, src.run, live_port, source=file.name))
         session = None
         if connect:
-            conf = client_config(connect, None, False, connect_ms=PROMPT_CONNECT_MS)
+            conf = client_config(connect, connect_ms=PROMPT_CONNECT_MS)
             session = stack.enter_context(open_session(conf, "replay"))  # the router is up
         if view is not None:
             warn("replay: waiting for a viewer to subscribe (Ctrl-C to stop)")

@@ -4,20 +4,17 @@ from __future__ import annotations
 
 import os
 import threading
-from pathlib import Path
+from typing import Any
 
 import click
 import zenoh
 
 from shoal.bus.acl import ROUTER
-from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
 from shoal.bus.links import watch_presence
 from shoal.bus.runtime import ArrivalKind, Inbox, announce_ready, exit_on_signals
-from shoal.bus.secure import Identity, Material
-from shoal.bus.zconfig import zenoh_config
-from shoal.tools.commands.options import check_run_id
-from shoal.tools.procs.session import open_session
+from shoal.tools.procs.children import RouterSpec, click_options
+from shoal.tools.procs.session import open_session, session_config
 
 # Zenoh closes a TCP link with SO_LINGER 10 s: a link to a host that went silent with data still
 # unsent blocks the runtime thread that drops it for up to 10 s (eclipse-zenoh/zenoh#1101). Its
@@ -29,61 +26,27 @@ RUNTIME = f"(rx: (worker_threads: {RX_THREADS}))"
 
 
 @click.command()
-@click.option(
-    "--listen",
-    "-l",
-    multiple=True,
-    help="Endpoint to listen on (repeatable) [default: tcp/127.0.0.1:7447; with --secure, "
-    "tls/127.0.0.1:7447].",
-)
-@click.option("--connect", "-e", multiple=True, help="Another router to mesh with (repeatable).")
-@click.option(
-    "--zenoh-config",
-    "config_file",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    default=None,
-)
-@click.option(
-    "--exit-after-run",
-    metavar="RUN",
-    callback=check_run_id,
-    help="Exit 0 once run RUN is over: its world came and went and every process of the run "
-    "has left (one-shot deployments such as docker compose, where the router must end too).",
-)
-@click.option(
-    "--secure",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    help="Secured mode: TLS with mutual authentication, the users' passwords and the run's "
-    "access rules, all from DIR (made by `shoal certs DIR`; docs/security.md).",
-)
-def router(
-    listen: tuple[str, ...],
-    connect: tuple[str, ...],
-    config_file: Path | None,
-    exit_after_run: str | None,
-    secure: Path | None,
-) -> None:
+@click_options(RouterSpec)
+def router(**params: Any) -> None:
     """Run a Zenoh router until SIGINT/SIGTERM (or until run RUN is over)."""
     exit_on_signals()
+    spec = RouterSpec.of(params)
     os.environ.setdefault("ZENOH_RUNTIME", RUNTIME)  # read when the session starts; the user's wins
-    listen = listen or (f"{'tls' if secure else 'tcp'}/127.0.0.1:7447",)
-    identity = Identity(Material(secure), ROUTER) if secure else None
-    try:
-        conf = zenoh_config(
-            mode="router",
-            listen=listen,
-            connect=connect,
-            config_file=config_file,
-            secure=identity,
-        )
-    except WireError as exc:
-        raise click.ClickException(str(exc)) from None
+    listen = spec.listen or (f"{'tls' if spec.secure else 'tcp'}/127.0.0.1:7447",)
+    conf = session_config(
+        "router",
+        listen=listen,
+        connect=spec.connect,
+        config_file=spec.zenoh_config,
+        secure=spec.secure,
+        name=ROUTER,
+    )
     with open_session(conf, "router") as session:
         announce_ready(f"router {' '.join(listen)}")
-        if exit_after_run is None:
+        if spec.exit_after_run is None:
             threading.Event().wait()  # until a signal turns into SystemExit
         else:
-            wait_for_run_end(session, Keys(exit_after_run))
+            wait_for_run_end(session, Keys(spec.exit_after_run))
 
 
 def wait_for_run_end(session: zenoh.Session, keys: Keys) -> None:

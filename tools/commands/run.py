@@ -17,8 +17,6 @@ from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
 from shoal.bus.types import Clock
 from shoal.tools.commands.options import (
-    check_run_id,
-    drop_options,
     live_options,
     live_view,
     load_for_cli,
@@ -27,6 +25,7 @@ from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
+from shoal.tools.procs.children import AgentSpec, check_run_id, click_options
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
@@ -102,7 +101,7 @@ def _where_the_log_is(out: Path) -> str:
     is_flag=True,
     help="With --live: start the run only once a viewer has subscribed to one of its topics.",
 )
-@drop_options
+@click_options(AgentSpec, only=("drop_rate", "drop_seed"))
 @click.option(
     "--secure",
     is_flag=True,

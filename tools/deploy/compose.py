@@ -20,10 +20,12 @@ Design (docs/docker.md):
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from typing import Any
 
 import yaml
 
+from shoal.tools.procs.children import AgentSpec, ChildSpec, LoggerSpec, RouterSpec, WorldSpec
 from shoal.world.scenario import Scenario
 
 PORT = 7447
@@ -52,9 +54,9 @@ def compose_dict(
     relative to the compose file, to build the image from (None: the image must exist).
     """
     run = f"${{SHOAL_RUN:-{run_id_for(scenario.name)}}}"
-    client = {"RUN_ID": run, "CONNECT": ENDPOINT}
+    client: dict[str, Any] = {"run_id": run, "connect": (ENDPOINT,)}
 
-    router = _service("router", [], {"LISTEN": f"tcp/0.0.0.0:{PORT}", "EXIT_AFTER_RUN": run})
+    router = _service(RouterSpec(listen=(f"tcp/0.0.0.0:{PORT}",), exit_after_run=run))
     del router["depends_on"]
     if build_context is not None:
         router["build"] = {
@@ -69,15 +71,14 @@ def compose_dict(
         "retries": 30,
     }
 
-    logger = _service("logger", [], {**client, "OUT": f"/runs/{run}.mcap"})
+    logger = _service(LoggerSpec(out=Path(f"/runs/{run}.mcap"), **client))
     logger["volumes"].append("${SHOAL_RUNS_DIR:-./runs}:/runs")
     logger["user"] = "${SHOAL_USER:-0:0}"  # who owns the log on the host
 
-    world = _service(
-        "world", [scenario.name if builtin else SCENARIO_PATH], {**client, "EXPECT": "logger"}
-    )
+    where = scenario.name if builtin else SCENARIO_PATH
+    world = _service(WorldSpec(scenario=where, expect=("logger",), **client))
     agents = {
-        f"agent-{i}": _service("agent", ["--id", str(i)], client) for i in range(1, scenario.n + 1)
+        f"agent-{i}": _service(AgentSpec(agent_id=i, **client)) for i in range(1, scenario.n + 1)
     }
     spec: dict[str, Any] = {
         "name": f"shoal-{run_id_for(scenario.name).lower()}",
@@ -90,16 +91,15 @@ def compose_dict(
     return spec
 
 
-def _service(command: str, args: list[str], options: dict[str, str]) -> dict[str, Any]:
+def _service(spec: ChildSpec) -> dict[str, Any]:
     """One shoal process: the image's entrypoint is ``shoal``; options travel as click's
     environment variables (SHOAL_<COMMAND>_<OPTION>), the Zenoh config as Zenoh's own."""
-    prefix = f"SHOAL_{command.upper()}_"
     return {
         "image": "${SHOAL_IMAGE:-shoal}",
         "init": True,
-        "command": [command, *args],
+        "command": [spec.command, *spec.identity()],
         "environment": {
-            **{prefix + key: value for key, value in options.items()},
+            **spec.environment(),
             "ZENOH_CONFIG": "${SHOAL_ZENOH_CONFIG:-}",
             "ZENOH_CONFIG_OVERRIDE": "${SHOAL_ZENOH_CONFIG_OVERRIDE:-}",
         },

@@ -7,9 +7,7 @@ for every agent's, the logger's and this monitor's liveliness tokens before its 
 
 from __future__ import annotations
 
-import json
 import os
-import re
 import socket
 import sys
 import time
@@ -26,6 +24,7 @@ from shoal.bus.report import reports_in
 from shoal.bus.runtime import ArrivalKind, Inbox, warn
 from shoal.bus.types import Clock
 from shoal.tools.deploy.certs import make_material
+from shoal.tools.procs.children import AgentSpec, LoggerSpec, RouterSpec, WorldSpec
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
@@ -34,14 +33,10 @@ from shoal.world.scenario import Scenario
 
 
 def _hand_over(scenario: Scenario, folder: Path) -> Path:
-    """The scenario's text as a file for the world, named so that the world's loader gives it
-    the same name (a scenario without ``name:`` is named after its file)."""
-    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", scenario.name) or "scenario"
-    text = scenario.source
-    if stem != scenario.name and not re.search(r"^name:", text, re.MULTILINE):
-        text = f"name: {json.dumps(scenario.name)}\n{text}"
-    path = folder / f"{stem}.yaml"
-    path.write_text(text, encoding="utf-8")
+    """The scenario's text, as it was parsed, in a file for the world (which is also given the
+    scenario's name: a scenario without ``name:`` is named after the file it came from)."""
+    path = folder / "scenario.yaml"
+    path.write_text(scenario.source, encoding="utf-8")
     return path
 
 
@@ -118,35 +113,30 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
         if plan.secure and plan.secure_dir is None:  # removed with the run folder at the end
             made = make_material(swarm.log_dir / "secure", run=plan.run_id, agents=plan.agents)
             plan = replace(plan, secure_dir=made.root)
-        secure = ["--secure", str(plan.secure_dir)] if plan.secure_dir else []
         scheme = "tls" if plan.secure_dir else "tcp"
         endpoint = plan.connect or f"{scheme}/127.0.0.1:{free_port()}"
         if plan.connect is not None:
             _probe(endpoint, plan)
         if plan.connect is None:
-            router = swarm.spawn(
-                "router", "router", ["router", "--listen", endpoint, *secure], ready_pipe=True
-            )
+            routing = RouterSpec(listen=(endpoint,), secure=plan.secure_dir)
+            router = swarm.spawn("router", "router", routing.argv(), ready_pipe=True)
             swarm.wait_ready(router, plan.start_timeout)
-        common = ["--run", plan.run_id, "--connect", endpoint, *secure]
-        logger = swarm.spawn(
-            "logger",
-            "logger",
-            ["logger", "--out", str(plan.out), *(["--force"] if plan.overwrite else []), *common],
-            ready_pipe=True,
-        )
+        common: dict[str, Any] = {
+            "run_id": plan.run_id, "connect": (endpoint,), "secure": plan.secure_dir
+        }  # fmt: skip
+        logging = LoggerSpec(out=plan.out, force=plan.overwrite, **common)
+        logger = swarm.spawn("logger", "logger", logging.argv(), ready_pipe=True)
         handed = _hand_over(plan.scenario, swarm.log_dir)
-        swarm.spawn(
-            "world",
-            "world",
-            ["world", str(handed), *common, "--expect", "logger", "--expect", "monitor",
-             "--clock", plan.clock, "--speed", str(plan.speed),
-             "--start-timeout", str(plan.start_timeout)],
+        world = WorldSpec(
+            scenario=str(handed), name=plan.scenario.name, expect=("logger", "monitor"),
+            clock=plan.clock, speed=plan.speed, start_timeout=plan.start_timeout, **common,
         )  # fmt: skip
-        drops = ["--drop-rate", str(plan.drop_rate), "--drop-seed", str(plan.drop_seed)]
+        swarm.spawn("world", "world", world.argv())
         for i in range(1, plan.agents + 1):
-            args = ["agent", "--id", str(i), *common, *(drops if plan.drop_rate else [])]
-            swarm.spawn(f"agent {i}", "agent", args)
+            agent = AgentSpec(
+                agent_id=i, drop_rate=plan.drop_rate, drop_seed=plan.drop_seed, **common
+            )
+            swarm.spawn(f"agent {i}", "agent", agent.argv())
         swarm.wait_ready(logger, plan.start_timeout)
         lost: list[str] = []
         window = None
@@ -170,7 +160,7 @@ def _probe(endpoint: str, plan: RunPlan) -> None:
     processes themselves keep trying for 30 s, which made an unreachable router look like
     "logger not ready" after half a minute (issue 16, item 7)."""
     conf = client_config(
-        (endpoint,), None, False, plan.secure_dir, MONITOR, connect_ms=PROMPT_CONNECT_MS
+        (endpoint,), secure=plan.secure_dir, name=MONITOR, connect_ms=PROMPT_CONNECT_MS
     )
     with open_session(conf, f"the router at {endpoint}"):
         pass
@@ -199,7 +189,7 @@ def _monitor(
     records = 0
     agents_up: set[str] = set()
     startup = float("nan")
-    conf = client_config((endpoint,), None, False, plan.secure_dir, MONITOR)
+    conf = client_config((endpoint,), secure=plan.secure_dir, name=MONITOR)
     with open_session(conf, "shoal run") as session:
         held = [
             subscribe(session, keys.tick, inbox),

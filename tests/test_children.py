@@ -1,0 +1,68 @@
+"""tools/procs/children.py: each process of a run described once. Every command line the
+launcher builds parses back, through the command's own click parser, to the same spec; every
+environment variable the compose file sets is one that command reads."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+import pytest
+
+from shoal.bus.types import Clock
+from shoal.tools.commands.agent import agent
+from shoal.tools.commands.logger import logger
+from shoal.tools.commands.router import router
+from shoal.tools.commands.world import world
+from shoal.tools.procs.children import AgentSpec, ChildSpec, LoggerSpec, RouterSpec, WorldSpec
+
+SECURE = Path(__file__).parent  # an existing folder: click checks that it exists
+COMMON: dict[str, Any] = {"run_id": "r-1", "connect": ("tcp/127.0.0.1:7447", "tcp/10.0.0.2:7447")}
+SPECS: list[tuple[ChildSpec, click.Command]] = [
+    (RouterSpec(listen=("tcp/127.0.0.1:7000",), exit_after_run="r-1", secure=SECURE), router),
+    (LoggerSpec(out=Path("/tmp/x.mcap"), force=True, **COMMON), logger),
+    (LoggerSpec(out=Path("/tmp/y.mcap"), **COMMON), logger),
+    (
+        WorldSpec(
+            scenario="passage",
+            name="a name: with spaces",
+            expect=("logger", "monitor"),
+            clock=Clock.REALTIME,
+            speed=2.5,
+            start_timeout=12.0,
+            multicast=True,
+            **COMMON,
+        ),
+        world,
+    ),
+    (WorldSpec(run_id="r-2"), world),
+    (AgentSpec(agent_id=7, drop_rate=0.25, drop_seed=3, secure=SECURE, **COMMON), agent),
+]
+
+
+@pytest.mark.parametrize(("spec", "command"), SPECS, ids=lambda x: getattr(x, "command", ""))
+def test_a_command_line_parses_back_to_the_same_spec(
+    spec: ChildSpec, command: click.Command
+) -> None:
+    argv = spec.argv()
+    assert argv[0] == spec.command == command.name
+    with command.make_context(argv[0], argv[1:]) as ctx:
+        assert type(spec).of(ctx.params) == spec
+
+
+@pytest.mark.parametrize(("spec", "command"), SPECS, ids=lambda x: getattr(x, "command", ""))
+def test_the_environment_says_what_the_command_line_says(
+    spec: ChildSpec, command: click.Command, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    for name, value in spec.environment().items():
+        monkeypatch.setenv(name, value)
+    with command.make_context(
+        spec.command, spec.identity(), auto_envvar_prefix=f"SHOAL_{spec.command.upper()}"
+    ) as ctx:
+        assert type(spec).of(ctx.params) == spec
+
+
+def test_defaults_are_left_off_the_command_line() -> None:
+    assert AgentSpec(run_id="r", agent_id=2).argv() == ["agent", "--run", "r", "--id", "2"]
+    assert WorldSpec(run_id="r").argv() == ["world", "default", "--run", "r"]

@@ -1,0 +1,268 @@
+"""The processes of a run, each described once: a frozen dataclass per command (``shoal router``,
+``logger``, ``world``, ``agent``) whose fields carry their click declarations.
+
+The command declares its options from it (:func:`click_options`) and builds it back from what
+click parsed (:meth:`ChildSpec.of`); ``shoal run``'s launcher gives a child its command line
+(:meth:`ChildSpec.argv`) and the compose file its environment (:meth:`ChildSpec.environment`),
+so the spellings cannot drift apart (tests/test_children.py parses every command line back).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+from collections.abc import Callable, Mapping
+from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
+from typing import Any, ClassVar, TypeVar
+
+import click
+
+from shoal.bus.errors import WireError
+from shoal.bus.keys import Keys
+from shoal.bus.types import Clock
+
+F = TypeVar("F", bound=Callable[..., Any])
+S = TypeVar("S", bound="ChildSpec")
+
+
+def check_run_id(_ctx: click.Context, _param: click.Parameter, value: str | None) -> str | None:
+    """Refuse a run id that cannot be a Zenoh key chunk, before anything starts."""
+    if value is not None:
+        try:
+            Keys(value)
+        except WireError as exc:
+            raise click.BadParameter(str(exc)) from None
+    return value
+
+
+def option(*decls: str, default: Any = MISSING, identity: bool = False, **click_kwargs: Any) -> Any:
+    """A child's option: ``decls`` as click takes them (the first is the flag a command line
+    gives), the field's default (none: the option is required) and click's other settings.
+    ``identity``: it says which process this is (an agent's id), so a compose service keeps it
+    on its command line rather than in its environment."""
+    metadata = {"decls": decls, "click": click_kwargs, "identity": identity}
+    return field(default=default, metadata=metadata)
+
+
+def argument(*, default: Any = MISSING, **click_kwargs: Any) -> Any:
+    """A child's positional argument."""
+    return field(default=default, metadata={"argument": True, "click": click_kwargs})
+
+
+@dataclass(frozen=True, kw_only=True)
+class ChildSpec:
+    """What one child process is started with. ``command``: its ``shoal`` subcommand."""
+
+    command: ClassVar[str]
+
+    @classmethod
+    def of(cls: type[S], params: Mapping[str, Any]) -> S:
+        """The spec from a command's parsed parameters (others in ``params`` are ignored)."""
+        values = {}
+        for f in fields(cls):
+            value = params[f.name]
+            if f.type == "Clock":
+                value = Clock(value)
+            values[f.name] = tuple(value) if isinstance(value, list) else value
+        return cls(**values)
+
+    def _given(self) -> list[tuple[dataclasses.Field[Any], Any]]:
+        """The arguments, and the options whose value is not their default, with the values."""
+        return [
+            (f, getattr(self, f.name))
+            for f in fields(self)
+            if f.metadata.get("argument")
+            or f.default is MISSING
+            or getattr(self, f.name) != f.default
+        ]
+
+    def argv(self) -> list[str]:
+        """``shoal`` arguments that start this child: the subcommand, then every argument and
+        every option that differs from its default."""
+        return [self.command, *self._arguments(lambda _f: True)]
+
+    def identity(self) -> list[str]:
+        """The arguments and the options that say which process this is (a compose service's
+        command after the subcommand; the rest goes in :meth:`environment`)."""
+        return self._arguments(lambda f: bool(f.metadata.get("identity")))
+
+    def _arguments(self, options: Callable[[dataclasses.Field[Any]], bool]) -> list[str]:
+        out = [_text(v) for f, v in self._given() if f.metadata.get("argument")]
+        for f, value in self._given():
+            if f.metadata.get("argument") or not options(f):
+                continue
+            flag = f.metadata["decls"][0]
+            if isinstance(value, bool):
+                out += [flag] if value else []
+            elif isinstance(value, tuple):
+                for item in value:
+                    out += [flag, _text(item)]
+            elif value is not None:
+                out += [flag, _text(value)]
+        return out
+
+    def environment(self) -> dict[str, str]:
+        """Every option that differs from its default as the environment variable click reads
+        for it (``SHOAL_<COMMAND>_<NAME>``; a repeated option's values space-separated)."""
+        prefix = f"SHOAL_{self.command.upper()}_"
+        env = {}
+        for f, value in self._given():
+            if f.metadata.get("argument") or f.metadata.get("identity") or value is None:
+                continue
+            if isinstance(value, tuple):
+                text = " ".join(_text(v) for v in value)
+            elif isinstance(value, bool):
+                text = "1" if value else "0"
+            else:
+                text = _text(value)
+            env[f.metadata["click"].get("envvar", prefix + f.name.upper())] = text
+        return env
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, enum.Enum):
+        return str(value.value)
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def click_options(spec: type[ChildSpec], only: tuple[str, ...] = ()) -> Callable[[F], F]:
+    """Declare ``spec``'s fields (``only`` these, if given) as a command's click arguments and
+    options, in field order (click shows them in declaration order)."""
+
+    def add(func: F) -> F:
+        for f in reversed(fields(spec)):
+            if only and f.name not in only:
+                continue
+            kwargs = dict(f.metadata["click"])
+            if f.metadata.get("argument"):
+                if f.default is not MISSING:
+                    kwargs.setdefault("default", f.default)
+                func = click.argument(f.name, **kwargs)(func)
+                continue
+            if f.default is MISSING:
+                kwargs.setdefault("required", True)
+            elif f.default is not None:
+                default = f.default
+                kwargs.setdefault("default", str(default) if f.type == "Clock" else default)
+            func = click.option(*f.metadata["decls"], f.name, **kwargs)(func)
+        return func
+
+    return add
+
+
+_SECURE = click.Path(exists=True, file_okay=False, path_type=Path)
+_FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClientSpec(ChildSpec):
+    """The options of a process that joins a run as a client of its router."""
+
+    run_id: str = option("--run", callback=check_run_id, help="The run id every key lives under.")
+    connect: tuple[str, ...] = option(
+        "--connect", "-e", default=(), multiple=True,
+        help="Zenoh endpoint of the router, e.g. tcp/127.0.0.1:7447 (repeatable).",
+    )  # fmt: skip
+    zenoh_config: Path | None = option(
+        "--zenoh-config", default=None, type=_FILE,
+        help="A Zenoh JSON5 config file (ZENOH_CONFIG is honoured too).",
+    )  # fmt: skip
+    multicast: bool = option(
+        "--multicast", default=False, is_flag=True,
+        help="Allow Zenoh multicast scouting (off by default).",
+    )  # fmt: skip
+    secure: Path | None = option(
+        "--secure", default=None, type=_SECURE,
+        help="Secured mode: TLS with this run's certificates, a password and the router's "
+        "access rules, from DIR (made by `shoal certs DIR`; docs/security.md).",
+    )  # fmt: skip
+
+
+@dataclass(frozen=True, kw_only=True)
+class RouterSpec(ChildSpec):
+    """``shoal router``: a Zenoh router (zenoh-python in router mode)."""
+
+    command: ClassVar[str] = "router"
+    listen: tuple[str, ...] = option(
+        "--listen", "-l", default=(), multiple=True,
+        help="Endpoint to listen on (repeatable) [default: tcp/127.0.0.1:7447; with --secure, "
+        "tls/127.0.0.1:7447].",
+    )  # fmt: skip
+    connect: tuple[str, ...] = option(
+        "--connect", "-e", default=(), multiple=True,
+        help="Another router to mesh with (repeatable).",
+    )  # fmt: skip
+    zenoh_config: Path | None = option(
+        "--zenoh-config", default=None, type=_FILE, help="A Zenoh JSON5 config file."
+    )
+    exit_after_run: str | None = option(
+        "--exit-after-run", default=None, metavar="RUN", callback=check_run_id,
+        help="Exit 0 once run RUN is over: its world came and went and every process of the "
+        "run has left (one-shot deployments such as docker compose, where the router must end "
+        "too).",
+    )  # fmt: skip
+    secure: Path | None = option(
+        "--secure", default=None, type=_SECURE,
+        help="Secured mode: TLS with mutual authentication, the users' passwords and the run's "
+        "access rules, all from DIR (made by `shoal certs DIR`; docs/security.md).",
+    )  # fmt: skip
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoggerSpec(ClientSpec):
+    """``shoal logger``: records a run into an MCAP file."""
+
+    command: ClassVar[str] = "logger"
+    out: Path = option(
+        "--out", "-o", type=click.Path(dir_okay=False, path_type=Path), help="MCAP file."
+    )
+    force: bool = option("--force", default=False, is_flag=True, help="Overwrite OUT if it exists.")
+
+
+@dataclass(frozen=True, kw_only=True)
+class WorldSpec(ClientSpec):
+    """``shoal world``: the world process of a run."""
+
+    command: ClassVar[str] = "world"
+    scenario: str = argument(default="default")
+    name: str | None = option(
+        "--name", default=None,
+        help="The scenario's name in the log and the summary [default: the scenario's own, or "
+        "its file's]. `shoal run` hands over a scenario's text under its name.",
+    )  # fmt: skip
+    expect: tuple[str, ...] = option(
+        "--expect", default=(), multiple=True,
+        help="Also wait for this process's token before tick 0 (logger, monitor; repeatable).",
+    )  # fmt: skip
+    clock: Clock = option(
+        "--clock", default=Clock.LOCKSTEP, type=click.Choice([str(c) for c in Clock]),
+        help="lockstep: wait for every live agent each tick; realtime: a fixed wall-clock rate.",
+    )  # fmt: skip
+    speed: float = option(
+        "--speed", default=1.0, type=click.FloatRange(min=0.01, max=100.0),
+        help="realtime: simulated seconds per wall-clock second.",
+    )  # fmt: skip
+    start_timeout: float = option(
+        "--start-timeout", default=60.0, help="Seconds to wait for every agent."
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class AgentSpec(ClientSpec):
+    """``shoal agent``: one agent process."""
+
+    command: ClassVar[str] = "agent"
+    agent_id: int = option("--id", identity=True, type=click.IntRange(min=1), help="Agent id.")
+    start_timeout: float = option(
+        "--start-timeout", default=60.0, help="Seconds to wait for the world."
+    )
+    drop_rate: float = option(
+        "--drop-rate", default=0.0, type=click.FloatRange(min=0.0, max=1.0, max_open=True),
+        envvar="SHOAL_DROP_RATE",
+        help="Fault injection, realtime only: throw away this fraction of incoming neighbour "
+        "states (seeded, counted; shoal run totals them in its summary, `injected_drops`).",
+    )  # fmt: skip
+    drop_seed: int = option(
+        "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
+    )
