@@ -1,6 +1,6 @@
 """The reference simulator: every agent and the world in one process, in lockstep.
 
-It calls exactly what the distributed run calls: the world's ``Field`` (moving obstacles),
+It calls exactly what the distributed run calls: the world's ``Obstacles`` (moving obstacles),
 ``sense_all``, ``actuate`` and ``integrate`` and each agent's ``Controller.announce`` /
 ``Controller.act``, in the same order and on the same float64 values, so a lockstep run over
 Zenoh must reproduce its trajectory bit for bit. setup.py compiles it with those modules: a
@@ -18,9 +18,9 @@ import numpy as np
 from shoal.agent.controller import Controller
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import AgentState, picklable
-from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.movers import MoverState
+from shoal.world.obstacles import Obstacles
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder, Trajectory
 
@@ -69,13 +69,13 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     n = scenario.n
     controllers = [Controller(scenario.agent_config(i + 1)) for i in range(n)]
     memories = [c.start() for c in controllers]
-    field = Field.of(scenario)
-    crowd = field.start(scenario)
+    obstacles = Obstacles.of(scenario)
+    crowd = obstacles.start(scenario)
     d = scenario.control.sensing_radius
     params = scenario.params()
     positions = scenario.initial_positions
     for k in range(scenario.steps):
-        crowd, sensings = field.sense(k, positions, crowd, d)
+        crowd, sensings = obstacles.sense(k, positions, crowd, d)
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
@@ -91,7 +91,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
         ordered = tuple(states[i + 1] for i in range(n))
         yield Tick(k, positions, ordered, velocities, tuple(filtered), moved, crowd)
         positions = moved
-        crowd = field.advance(crowd)
+        crowd = obstacles.advance(crowd)
 
 
 def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:

@@ -24,7 +24,7 @@ from shoal.bus.safety import TOLERANCE
 from shoal.bus.types import Clock
 from shoal.world.arrival import STALL_SPEED, arrival
 from shoal.world.contacts import contacts
-from shoal.world.field import centres_at
+from shoal.world.obstacles import centres_at
 from shoal.world.scenario import Scenario
 from shoal.world.slots import slot_errors
 from shoal.world.sweep import step_clearances, step_separations

@@ -1,6 +1,6 @@
 """The world process: the lockstep clock, kinematics and sensing for every agent, over Zenoh.
 
-A thin loop around :meth:`shoal.world.field.Field.sense` and
+A thin loop around :meth:`shoal.world.obstacles.Obstacles.sense` and
 :func:`shoal.world.kinematics.integrate`:
 each tick it sends every live agent its sensing, waits until every live agent's command for the
 tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
@@ -28,10 +28,10 @@ from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import Clock
-from shoal.world.field import Field
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
+from shoal.world.obstacles import Obstacles
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder
 from shoal.world.watch import LeaderWatch
@@ -137,8 +137,8 @@ class World(Declarations):
     def run(self) -> dict[str, Any]:
         """Run every tick; returns (and publishes) the summary with the run's timing."""
         s = self.scenario
-        field = Field.of(s)
-        crowd = field.start(s)
+        obstacles = Obstacles.of(s)
+        crowd = obstacles.start(s)
         positions = s.initial_positions
         recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids))
         params = s.params()
@@ -153,7 +153,7 @@ class World(Declarations):
             if said is not None:
                 self._event(k, 3 if watch.trapped else 2, 1, said)
             clock.sent(k)
-            crowd, sensings = field.sense(k, positions, crowd, s.control.sensing_radius)
+            crowd, sensings = obstacles.sense(k, positions, crowd, s.control.sensing_radius)
             for i in sorted(self.alive):
                 self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
             self._collect(k, clock)
@@ -172,7 +172,7 @@ class World(Declarations):
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
             positions = integrate(positions, velocities, s.dt)
-            crowd = field.advance(crowd)
+            crowd = obstacles.advance(crowd)
             if self.aborted is not None:
                 break
         traj = recorder.finish(positions, crowd.centres)

@@ -20,7 +20,7 @@ from shoal.world.scenario import Scenario
 
 
 @dataclass(frozen=True)
-class Field:
+class Obstacles:
     """The obstacles of ``scenario``: ``centres``/``radii``/``ids`` of the standing ones and
     what moves the others (``motions``, in ``mover_ids`` order)."""
 
@@ -35,7 +35,7 @@ class Field:
     dt: float
 
     @classmethod
-    def of(cls, s: Scenario) -> Field:
+    def of(cls, s: Scenario) -> Obstacles:
         movers = [s.obstacles[k] for k in s.mover_ids]
         return cls(
             centres=s.obstacle_centres,
