@@ -16,7 +16,7 @@ what runs wherever they are missing. Either gives the same bits:
 The build keeps the pure modules, saying why, for an editable install (``pip install -e``: the
 sources run as they are edited; ``SHOAL_COMPILE=1`` compiles anyway), with ``SHOAL_PURE=1``,
 without a C compiler or mypyc, or when compiling fails (the extensions are optional).
-tests/test_compiled.py runs the built-ins both ways and compares their digests.
+tests/tools/test_compiled.py runs the built-ins both ways and compares their digests.
 """
 
 from __future__ import annotations

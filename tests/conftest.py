@@ -274,7 +274,7 @@ def cpu_hogs(count: int, seconds: float) -> Iterator[None]:
 def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A non-editable install of this checkout, as a user's ``pip install .`` builds it (its
     per-tick modules compiled where a C compiler is: setup.py); no dependencies: this venv has
-    them. Shared by tests/test_install.py and tests/test_compiled.py."""
+    them. Shared by tests/integration/test_install.py and tests/tools/test_compiled.py."""
     target = tmp_path_factory.mktemp("site")
     subprocess.run(
         [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",

@@ -100,7 +100,11 @@ def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Traject
                         movers=len(scenario.mover_ids))  # fmt: skip
     after = scenario.initial_positions
     for t in run(scenario):
-        announced = ((s.omega, s.bid, s.sigma, s.theta) for s in t.states)
+        states = t.states
+        announced = (
+            [s.omega for s in states], [s.bid for s in states],
+            [s.sigma for s in states], [s.theta for s in states],
+        )  # fmt: skip
         recorder.add(t.positions, t.velocities, announced, t.filtered,
                      t.movers.centres, t.movers.velocities)  # fmt: skip
         after = t.next_positions

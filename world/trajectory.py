@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, BinaryIO, ClassVar
@@ -147,21 +147,20 @@ class Recorder:
         self,
         positions: Any,
         velocities: Any,
-        announced: Iterable[tuple[bool, float, float, float]],
+        announced: tuple[Sequence[bool], Sequence[float], Sequence[float], Sequence[float]],
         filtered: Sequence[bool],
         mover_centres: Any = (),
         mover_velocities: Any = (),
     ) -> None:
         """The next tick: positions (n, dim) at its start, velocities (n, dim) held during it,
-        each agent's announced (Ω, bid, σ, θ) in agent order, where its filter was active, and
+        what the agents announced as (Ω, bid, σ, θ), each in agent order, where each agent's
+        filter was active, and
         the moving obstacles' centres at its start and velocities over it."""
         k = self.ticks
         self._positions[k] = positions
         self._velocities[k] = velocities
         self._filtered[k] = filtered
-        for i, (omega, bid, sigma, theta) in enumerate(announced):
-            self._omega[k, i], self._bid[k, i] = omega, bid
-            self._sigma[k, i], self._theta[k, i] = sigma, theta
+        self._omega[k], self._bid[k], self._sigma[k], self._theta[k] = announced
         if self._movers is not None and self._mover_velocities is not None:
             self._movers[k] = mover_centres
             self._mover_velocities[k] = mover_velocities
@@ -169,7 +168,7 @@ class Recorder:
 
     def record(self, r: TickRecord) -> None:
         """The next tick from the world's record of it."""
-        announced = zip(r.omega, r.bid, r.sigma, r.theta, strict=True)
+        announced = (r.omega, r.bid, r.sigma, r.theta)
         self.add(r.positions, r.velocities, announced, r.filtered,
                  r.mover_centres, r.mover_velocities)  # fmt: skip
 

@@ -6,7 +6,7 @@ happens: :class:`LeaderWatch` applies the same rule to each tick as it comes —
 trapped at tick k when it is not within R of its goal and its route left is not shorter than
 its least up to P s before by more than R — and says so once, and once more if it gets going
 again. Same R, P and route left as world/arrival.py, so the event and the summary agree
-(tests/test_watch.py checks them against each other).
+(tests/world/test_watch.py checks them against each other).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 // Foxglove's own WebSocket client (@foxglove/ws-protocol) against `shoal run --live`: the test's
-// independent viewer (tests/test_live.py).
+// independent viewer (tests/integration/test_live.py).
 //
 //   node tests/live/client.mjs ws://127.0.0.1:8765 [--topics a,b] [--slow MS]
 //

@@ -10,8 +10,8 @@ has CPU stalls, during which the world's watchdog holds starved agents still whi
 on: they show in the p95 and the max, which are reported beside it together with the run's missed
 deadlines and stale holds, so a reader can tell load from loss).
 
-``shoal bench --drops 0,0.05,0.2`` prints the figures as JSON; tests/test_faults.py asserts a
-bound on a shorter run of the same function.
+``shoal bench --drops 0,0.05,0.2`` prints the figures as JSON;
+tests/integration/test_faults.py asserts a bound on a shorter run of the same function.
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ Call = tuple[Vector, Sensing, int, dict[str, Any]]
 def _source(module: ModuleType) -> ModuleType:
     """``module`` as Python: a compiled controller (setup.py) calls the filter within C, where
     no patch reaches, and a compiled simulator calls the compiled controller, so the calls are
-    recorded through their sources instead (the same bits: tests/test_compiled.py)."""
+    recorded through their sources instead (the same bits: tests/tools/test_compiled.py)."""
     source = Path(str(module.__file__)).with_name(module.__name__.rpartition(".")[2] + ".py")
     if Path(str(module.__file__)) == source:
         return module

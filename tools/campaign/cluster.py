@@ -3,7 +3,7 @@
 
 Each field is one Dask task running exactly what a local worker runs (``run_task`` or
 ``run_people_task``): the field is drawn from its seed on the worker and simulated there, so
-the outcomes are the local run's, field for field (tests/test_cluster.py, with a local cluster
+the outcomes are the local run's, field for field (tests/tools/test_cluster.py, with a local cluster
 of two worker processes). Every worker needs this shoal installed (the same version: the bits
 of a field are the code's); the scheduler needs nothing of shoal. Dask's ``distributed`` is an
 optional dependency (``pip install 'shoal[cluster]'``); the local process pool stays the

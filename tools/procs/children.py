@@ -4,7 +4,7 @@
 The command declares its options from it (:func:`click_options`) and builds it back from what
 click parsed (:meth:`ChildSpec.of`); ``shoal run``'s launcher gives a child its command line
 (:meth:`ChildSpec.argv`) and the compose file its environment (:meth:`ChildSpec.environment`),
-so the spellings cannot drift apart (tests/test_children.py parses every command line back).
+so the spellings cannot drift apart (tests/tools/test_children.py parses every command line back).
 """
 
 from __future__ import annotations

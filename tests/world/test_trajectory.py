@@ -45,7 +45,8 @@ def test_a_run_that_ends_early_keeps_exactly_the_ticks_it_recorded() -> None:
 
 def test_given_final_positions_replace_the_integrated_ones() -> None:
     recorder = Recorder(0.5, 2, 2, steps=2)
-    recorder.add(np.zeros((2, 2)), np.ones((2, 2)), [(True, 1.0, 1.0, 0.0)] * 2, [False, False])
+    announced = ([True] * 2, [1.0] * 2, [1.0] * 2, [0.0] * 2)
+    recorder.add(np.zeros((2, 2)), np.ones((2, 2)), announced, [False] * 2)
     traj = recorder.finish(positions=np.full((2, 2), 7.0))
     assert traj.positions[-1].tolist() == [[7.0, 7.0], [7.0, 7.0]]
     assert traj.movers is None and traj.mover_velocities is None

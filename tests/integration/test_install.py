@@ -13,7 +13,7 @@ import pytest
 
 from shoal.world.loader import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture

@@ -56,7 +56,7 @@ from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario, parse_scenario
 from shoal.world.metrics import summarize
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 VENDORED = ROOT / "tools" / "foxglove" / "schemas"
 T0 = 1_790_000_000_123_456_789  # ns: a log time in 2026
 LOG_STEP = 7_000_000  # ns between tick records: log time is not simulated time (dt = 20 ms)

@@ -1,6 +1,6 @@
-"""Cases and checkers for the safety filter's properties (tests/test_safety.py), written against
+"""Cases and checkers for the safety filter's properties (tests/bus/test_safety.py), written against
 any filter with the signature of :func:`shoal.bus.safety.safe_velocity`, so that the same
-checkers can be shown to catch broken filters (tests/test_safety_mutants.py).
+checkers can be shown to catch broken filters (tests/bus/test_safety_mutants.py).
 
 A case is one agent at a safe position among obstacles and other agents, often right at a guard
 circle or a cell edge (where corners of several rows meet), with an arbitrary nominal velocity.

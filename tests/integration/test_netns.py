@@ -1,7 +1,7 @@
 """Multi-host runs without Docker: each group of processes on its own network-namespace "host".
 
 The router, the world with the logger, and the agents (split over two hosts) each sit in their
-own namespace, joined only by a bridge (tests/netns.py); every process reaches the others
+own namespace, joined only by a bridge (tests/helpers/netns.py); every process reaches the others
 through a router's bridge address, as it would across machines. A partition is one agent host's
 bridge port set down (packets lost silently, as with a pulled cable). Readiness comes from ready
 lines, the world's own wait for every token, and the run's tick records; nothing sleeps.

@@ -1,6 +1,7 @@
 """The secured mode without a network: the router's rules for a run (bus/acl.py), the Zenoh
 settings each process gets (bus/secure.py, bus/zconfig.py), and the material on disk
-(tools/deploy/certs.py). The same refusals with real processes are in tests/test_secure.py."""
+(tools/deploy/certs.py). The same refusals with real processes are in
+tests/integration/test_secure.py."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ import pytest
 import shoal
 from shoal.world.errors import ScenarioError
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "api.md"
 
 
 def test_the_api_reaches_the_reference_and_its_figures() -> None:

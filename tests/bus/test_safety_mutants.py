@@ -1,6 +1,7 @@
 """The safety tests can fail: each broken filter below (a margin dropped, rows handled one at a
 time instead of projected jointly, the cap forgotten, a stop instead of a projection, pruning by
-the wrong radius) is caught by the very checkers tests/test_safety.py holds the real filter to."""
+the wrong radius) is caught by the very checkers tests/bus/test_safety.py holds the real filter
+to."""
 
 from __future__ import annotations
 

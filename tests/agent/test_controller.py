@@ -280,7 +280,7 @@ def test_a_formation_at_rest_beside_an_obstacle_stops_evading_and_arrives() -> N
     from shoal.world.metrics import summarize
 
     with pytest.warns(DetourWarning):  # the leader's first leg runs through an obstacle
-        scn = load_scenario(Path(__file__).parent / "fields" / "evading-at-rest.yaml")
+        scn = load_scenario(Path(__file__).parents[1] / "fields" / "evading-at-rest.yaml")
     traj = simulate(scn)
     s = summarize(scn, traj)
     assert s.collisions == 0 and s.arrived and s.livelocks == 0
@@ -299,7 +299,7 @@ def _kept_field(name: str) -> tuple[Any, Any, float]:
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the usual detour warnings of hard fields
-        scn = load_scenario(Path(__file__).parent / "fields" / f"{name}.yaml")
+        scn = load_scenario(Path(__file__).parents[1] / "fields" / f"{name}.yaml")
     slots = final_slots(scn)[1:]
     gap = np.linalg.norm(slots[:, None] - scn.obstacle_centres[None], axis=-1)
     gap = gap - scn.obstacle_radii - scn.control.safety_margin

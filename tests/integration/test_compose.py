@@ -27,7 +27,7 @@ from shoal.tools.procs.launch import free_port
 from shoal.tools.procs.swarm import Swarm
 from shoal.world.loader import builtin_names, load_scenario
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SHIPPED = REPO / "docker" / "compose.yaml"
 _VARIABLE = re.compile(r"\$\{(\w+):-([^}]*)\}")
 

@@ -205,6 +205,6 @@ def test_a_leader_that_loses_sight_of_an_obstacle_round_a_cluster_does_not_turn_
     from shoal.world.metrics import summarize
 
     with pytest.warns(DetourWarning):
-        scn = load_scenario(Path(__file__).parent / "fields" / "leader-sees-and-loses.yaml")
+        scn = load_scenario(Path(__file__).parents[1] / "fields" / "leader-sees-and-loses.yaml")
     s = summarize(scn, simulate(scn))
     assert s.collisions == 0 and s.leader_shortfall <= 1e-9

@@ -3,8 +3,8 @@ decoder (mcap-ros2-support, Foxglove's: it parses the ros2msg schemas the bag ca
 decodes the CDR itself), not with rosbags, which wrote it.
 
 The log is the reference simulator's run written with the logger's own writer, as in
-tests/test_foxglove.py: four agents, one standing and two moving obstacles, follower 2 evading,
-agent 4's process gone from tick 120 on.
+tests/integration/test_foxglove.py: four agents, one standing and two moving obstacles, follower 2
+evading, agent 4's process gone from tick 120 on.
 """
 
 from __future__ import annotations

@@ -142,7 +142,7 @@ def test_zenoh_config_precedence(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def _doc_row(kind: str) -> str:
-    wire = (Path(__file__).parents[1] / "docs" / "wire.md").read_text(encoding="utf-8")
+    wire = (Path(__file__).parents[2] / "docs" / "wire.md").read_text(encoding="utf-8")
     rows = [line for line in wire.splitlines() if line.startswith(f"| `{kind}` |")]
     assert len(rows) == 1, kind
     return rows[0]

@@ -1,10 +1,10 @@
 """Faults survived (issue 6, items 1 and 2), with real processes over a real Zenoh router.
 
-A follower SIGKILLed in realtime (lockstep: tests/test_run_swarm.py), a follower restarted after it
-died (taken back in realtime, refused in lockstep), the leader killed (every agent held still,
-the run ends with an error naming it), the world killed (agents stop and exit 0), and neighbour
-messages dropped at 0, 5 and 20 % (the formation still converges). The logger killed is
-tests/test_salvage.py; a network partition is tests/test_netns.py.
+A follower SIGKILLed in realtime (lockstep: tests/integration/test_run_swarm.py), a follower
+restarted after it died (taken back in realtime, refused in lockstep), the leader killed (every
+agent held still, the run ends with an error naming it), the world killed (agents stop and exit
+0), and neighbour messages dropped at 0, 5 and 20 % (the formation still converges). The logger
+killed is tests/integration/test_salvage.py; a network partition is tests/integration/test_netns.py.
 
 Readiness and progress come from the run's own events, tick records and liveliness tokens;
 nothing sleeps. Realtime runs share a 2-core machine with other work, so every bound on a
@@ -64,7 +64,7 @@ def follower_errors(scenario: Path, out: Path) -> Any:
     return formation_errors(scn, read_trajectory(out, dt=scn.dt))
 
 
-# -- a follower killed (realtime; the lockstep case is tests/test_run_swarm.py) --------------------
+# -- a follower killed (realtime; the lockstep case is tests/integration/test_run_swarm.py) ------
 
 
 def test_realtime_sigkill_of_a_follower_is_survived_and_logged(router: str, tmp_path: Path) -> None:

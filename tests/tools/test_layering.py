@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 LINT = Path(sys.executable).parent / "lint-imports"
 
 
@@ -65,7 +65,7 @@ def test_pyproject_lists_every_package_the_tree_holds() -> None:
     a new subpackage left out of it would be missing from the wheel, not from a checkout."""
     import tomllib
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     tool = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))["tool"]
     listed = set(tool["setuptools"]["packages"])
     found = set()

@@ -29,7 +29,7 @@ from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.docker
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 IMAGE = "shoal:test"
 CI_BASE = "local/bookworm:base"
 
