@@ -42,8 +42,21 @@ _shown = reprlib.Repr()
 _shown.maxlevel, _shown.maxstring, _shown.maxother = 2, 40, 40
 
 
+def _wire_form(value: Any) -> Any:
+    """What msgpack cannot pack as it is: a moving obstacle as [id, centre, radius, velocity,
+    speed cap]; a numpy array as its list (tuples and lists both pack as arrays, and numpy's
+    float64 as a float64, so a message's bytes do not depend on which it holds)."""
+    if isinstance(value, Mover):
+        return [value.obstacle_id, value.centre, value.radius, value.velocity, value.speed_cap]
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"cannot put a {type(value).__name__} on the wire")
+
+
 def _pack(kind: str, body: dict[str, Any]) -> bytes:
-    return bytes(msgpack.packb({"v": SCHEMA, "k": kind, **body}, use_bin_type=True))
+    return bytes(
+        msgpack.packb({"v": SCHEMA, "k": kind, **body}, use_bin_type=True, default=_wire_form)
+    )
 
 
 def _unpack(kind: str, data: bytes) -> Mapping[str, Any]:
@@ -158,57 +171,56 @@ def _map(value: Any, where: str) -> Mapping[str, Any]:
 # -- each message once --------------------------------------------------------------------------
 
 
-def _as_list(value: Any) -> list[Any]:
-    return list(value)
-
-
-def _as_lists(value: Any) -> list[list[Any]]:
-    return [list(v) for v in value]
-
-
-@dataclass(frozen=True, slots=True)
-class Kind:
-    """How one type travels: ``decode`` checks a wire value (raising :class:`DecodeError` that
-    names ``where``) and returns it as the message holds it; ``encode`` makes the message's value
-    msgpack-able (None: as it is)."""
-
-    decode: Callable[[Any, str], Any]
-    encode: Callable[[Any], Any] | None = None
-
-
-INT, BOOL, STR, FLOAT = Kind(_int), Kind(_bool), Kind(_str), Kind(_float)
-INTS, BOOLS, FLOATS = Kind(_ints, _as_list), Kind(_bools, _as_list), Kind(_floats, _as_list)
-VECTOR, VECTORS = Kind(_vector, _as_list), Kind(_vectors, _as_lists)
-
-
 @dataclass(frozen=True, slots=True)
 class WireField:
     """One field of a message: its ``key`` in the msgpack map, the message attribute ``name``
-    it carries, and its :class:`Kind`. ``sparse``: written only when not empty, so that a run
-    without the feature keeps its bytes (moving obstacles)."""
+    it carries, and ``check``, which decodes a wire value (raising :class:`DecodeError` that
+    names where) into what the message holds. ``sparse``: written only when not empty, so that
+    a run without the feature keeps its bytes (moving obstacles)."""
 
     key: str
     name: str
-    kind: Kind
+    check: Callable[[Any, str], Any]
     sparse: bool = False
 
 
-def _encode_fields(table: tuple[WireField, ...], message: Any) -> dict[str, Any]:
-    body: dict[str, Any] = {}
-    for f in table:
-        value = getattr(message, f.name)
-        if f.sparse and not value:
-            continue
-        body[f.key] = value if f.kind.encode is None else f.kind.encode(value)
-    return body
+def encoder(*tables: tuple[WireField, ...]) -> Callable[..., dict[str, Any]]:
+    """The function that maps messages to their wire map, one message per table (a ``cmd``
+    is a state and a command): a dict display of the fields always written, made from the
+    tables' own keys and names, as fast as one written by hand; then the sparse fields that
+    are not empty."""
+    args = [f"m{i}" for i in range(len(tables))]
+    items = [
+        f"{f.key!r}: {arg}.{f.name}"
+        for arg, table in zip(args, tables, strict=True)
+        for f in table
+        if not f.sparse
+    ]
+    if not all(f.name.isidentifier() for table in tables for f in table):
+        raise ValueError("a message field's name must be an identifier")
+    source = f"lambda {', '.join(args)}: {{{', '.join(items)}}}"  # keys as literals, names checked
+    build: Callable[..., dict[str, Any]] = eval(source)
+    sparse = [(f.key, f.name) for table in tables for f in table if f.sparse]
+    if not sparse:
+        return build
+    if len(tables) != 1:
+        raise ValueError("sparse fields are for one-message tables")
+
+    def encode(message: Any) -> dict[str, Any]:
+        body = build(message)
+        for key, name in sparse:
+            value = getattr(message, name)
+            if value:
+                body[key] = value
+        return body
+
+    return encode
 
 
 def _decode_fields(table: tuple[WireField, ...], m: Mapping[str, Any]) -> dict[str, Any]:
     """The message's attributes from map ``m``, field by field, each checked (a sparse field
     that is absent is left to the message's default)."""
-    return {
-        f.name: _get(m, f.key, f.kind.decode) for f in table if not (f.sparse and f.key not in m)
-    }
+    return {f.name: _get(m, f.key, f.check) for f in table if not (f.sparse and f.key not in m)}
 
 
 # -- world → agent ------------------------------------------------------------------------------
@@ -237,27 +249,22 @@ def _movers(value: Any, where: str) -> tuple[Mover, ...]:
     return tuple(out)
 
 
-def _movers_body(movers: tuple[Mover, ...]) -> list[list[Any]]:
-    return [
-        [m.obstacle_id, list(m.centre), m.radius, list(m.velocity), m.speed_cap] for m in movers
-    ]
-
-
 SENSING = (
-    WireField("tick", "tick", INT),
-    WireField("pos", "position", VECTOR),
-    WireField("oid", "obstacle_ids", INTS),
-    WireField("oc", "obstacle_centres", VECTORS),
-    WireField("or", "obstacle_radii", FLOATS),
-    WireField("aid", "agent_ids", INTS),
-    WireField("ap", "agent_positions", VECTORS),
-    WireField("mv", "movers", Kind(_movers, _movers_body), sparse=True),
+    WireField("tick", "tick", _int),
+    WireField("pos", "position", _vector),
+    WireField("oid", "obstacle_ids", _ints),
+    WireField("oc", "obstacle_centres", _vectors),
+    WireField("or", "obstacle_radii", _floats),
+    WireField("aid", "agent_ids", _ints),
+    WireField("ap", "agent_positions", _vectors),
+    WireField("mv", "movers", _movers, sparse=True),
 )
+_encode_sensing = encoder(SENSING)
 _SENSING_FIELDS = itemgetter(*(f.key for f in SENSING if not f.sparse))
 
 
 def encode_sensing(s: Sensing) -> bytes:
-    return _pack("sensing", _encode_fields(SENSING, s))
+    return _pack("sensing", _encode_sensing(s))
 
 
 def decode_sensing(data: bytes) -> Sensing:
@@ -316,15 +323,16 @@ def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
 
 
 STATE = (
-    WireField("id", "agent_id", INT),
-    WireField("tick", "tick", INT),
-    WireField("pos", "position", VECTOR),
-    WireField("omega", "omega", BOOL),
-    WireField("bid", "bid", FLOAT),
-    WireField("sigma", "sigma", FLOAT),
-    WireField("theta", "theta", FLOAT),
+    WireField("id", "agent_id", _int),
+    WireField("tick", "tick", _int),
+    WireField("pos", "position", _vector),
+    WireField("omega", "omega", _bool),
+    WireField("bid", "bid", _float),
+    WireField("sigma", "sigma", _float),
+    WireField("theta", "theta", _float),
 )
 _STATE_FIELDS = itemgetter(*(f.key for f in STATE))
+_encode_state = encoder(STATE)
 
 
 def _state_from(m: Mapping[str, Any]) -> AgentState:
@@ -342,7 +350,7 @@ def _state_from(m: Mapping[str, Any]) -> AgentState:
 
 
 def encode_state(s: AgentState) -> bytes:
-    return _pack("state", _encode_fields(STATE, s))
+    return _pack("state", _encode_state(s))
 
 
 def decode_state(data: bytes) -> AgentState:
@@ -353,12 +361,13 @@ def decode_state(data: bytes) -> AgentState:
 
 
 # A command travels with the state it was computed from: its id and tick are the state's.
-COMMAND = (WireField("vel", "velocity", VECTOR), WireField("flt", "filtered", BOOL))
+COMMAND = (WireField("vel", "velocity", _vector), WireField("flt", "filtered", _bool))
+_encode_report = encoder(STATE, COMMAND)
 
 
 def encode_report(state: AgentState, command: Command) -> bytes:
     """The command of a tick, carrying what the agent announced that tick (for the record)."""
-    return _pack("cmd", {**_encode_fields(STATE, state), **_encode_fields(COMMAND, command)})
+    return _pack("cmd", _encode_report(state, command))
 
 
 def decode_report(data: bytes) -> tuple[AgentState, Command]:
@@ -504,22 +513,23 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
 
 
 TICK = (
-    WireField("tick", "tick", INT),
-    WireField("pos", "positions", VECTORS),
-    WireField("vel", "velocities", VECTORS),
-    WireField("omega", "omega", BOOLS),
-    WireField("bid", "bid", FLOATS),
-    WireField("sigma", "sigma", FLOATS),
-    WireField("theta", "theta", FLOATS),
-    WireField("alive", "alive", BOOLS),
-    WireField("flt", "filtered", BOOLS),
-    WireField("mc", "mover_centres", VECTORS, sparse=True),  # only in runs with moving obstacles
-    WireField("mw", "mover_velocities", VECTORS, sparse=True),
+    WireField("tick", "tick", _int),
+    WireField("pos", "positions", _vectors),
+    WireField("vel", "velocities", _vectors),
+    WireField("omega", "omega", _bools),
+    WireField("bid", "bid", _floats),
+    WireField("sigma", "sigma", _floats),
+    WireField("theta", "theta", _floats),
+    WireField("alive", "alive", _bools),
+    WireField("flt", "filtered", _bools),
+    WireField("mc", "mover_centres", _vectors, sparse=True),  # only in runs with moving obstacles
+    WireField("mw", "mover_velocities", _vectors, sparse=True),
 )
+_encode_tick = encoder(TICK)
 
 
 def encode_tick(t: TickRecord) -> bytes:
-    return _pack("tick", _encode_fields(TICK, t))
+    return _pack("tick", _encode_tick(t))
 
 
 def decode_tick(data: bytes) -> TickRecord:
@@ -537,15 +547,16 @@ def decode_tick(data: bytes) -> TickRecord:
 
 
 EVENT = (
-    WireField("tick", "tick", INT),
-    WireField("level", "level", INT),
-    WireField("agent", "agent", INT),
-    WireField("text", "text", STR),
+    WireField("tick", "tick", _int),
+    WireField("level", "level", _int),
+    WireField("agent", "agent", _int),
+    WireField("text", "text", _str),
 )
+_encode_event = encoder(EVENT)
 
 
 def encode_event(e: Event) -> bytes:
-    return _pack("event", _encode_fields(EVENT, e))
+    return _pack("event", _encode_event(e))
 
 
 def decode_event(data: bytes) -> Event:
