@@ -175,3 +175,21 @@ def test_the_router_ends_with_its_run_so_compose_up_returns(tmp_path: Path) -> N
         assert proc.returncode == 0
         router.done = True
         assert router.popen.wait(timeout=30) == 0
+
+
+def test_an_install_without_a_checkout_writes_the_shipped_file_given_one(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """From an installed wheel (no checkout beside the packages) `--build-context CHECKOUT`
+    writes docker/compose.yaml as shipped; a folder that is not a checkout is refused."""
+    import shoal.tools.commands.compose as command
+
+    monkeypatch.setattr(command, "_CHECKOUT", tmp_path / "site-packages")
+    monkeypatch.chdir(REPO / "docker")  # where the shipped file is: its context is ".."
+    bare = CliRunner().invoke(main, ["compose", "default"])
+    assert "build:" not in bare.stdout and "--build-context CHECKOUT" in bare.stderr
+    given = CliRunner().invoke(main, ["compose", "default", "--build-context", str(REPO)])
+    assert given.exit_code == 0, given.output
+    assert given.stdout == SHIPPED.read_text(encoding="utf-8")
+    wrong = CliRunner().invoke(main, ["compose", "default", "--build-context", str(tmp_path)])
+    assert wrong.exit_code == 2 and "has no docker/Dockerfile" in wrong.output

@@ -29,7 +29,13 @@ _CHECKOUT = Path(__file__).resolve().parents[2]
     is_flag=True,
     help="Leave out the build section: the image ($SHOAL_IMAGE, else shoal) must exist.",
 )
-def compose(scenario: str, out: Path | None, no_build: bool) -> None:
+@click.option(
+    "--build-context",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="The shoal checkout to build the image from (its docker/Dockerfile)  [default: the "
+    "checkout shoal runs from, if it runs from one; an installed wheel has none].",
+)
+def compose(scenario: str, out: Path | None, no_build: bool, build_context: Path | None) -> None:
     """Write the docker compose file that runs SCENARIO (a built-in name or a YAML file):
     a router, the world, the logger and one service per agent.
 
@@ -40,10 +46,16 @@ def compose(scenario: str, out: Path | None, no_build: bool) -> None:
     """
     scn = load_for_cli(scenario)
     builtin = scenario in builtin_names() and not Path(scenario).exists()
+    checkout = _CHECKOUT if build_context is None else build_context.resolve()
+    if build_context is not None and not (checkout / "docker" / "Dockerfile").is_file():
+        raise click.BadParameter(
+            f"{build_context} has no docker/Dockerfile: give a shoal checkout",
+            param_hint="--build-context",
+        )
     context = None
-    if not no_build and (_CHECKOUT / "docker" / "Dockerfile").is_file():
+    if not no_build and (checkout / "docker" / "Dockerfile").is_file():
         here = (out.parent if out else Path()).resolve()
-        context = Path(os.path.relpath(_CHECKOUT, here)).as_posix()
+        context = Path(os.path.relpath(checkout, here)).as_posix()
     text = compose_yaml(scn, builtin=builtin, label=scenario, build_context=context)
     if out is None:
         click.echo(text, nl=False)
@@ -56,6 +68,6 @@ def compose(scenario: str, out: Path | None, no_build: bool) -> None:
         click.echo(
             "no build section: the image ${SHOAL_IMAGE:-shoal} must exist first; build it "
             "from a shoal checkout with `docker build -f docker/Dockerfile -t shoal .` (or run "
-            "`shoal compose` from the checkout, whose compose file builds it)",
+            "`shoal compose --build-context CHECKOUT`, whose compose file builds it)",
             err=True,
         )
