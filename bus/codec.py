@@ -524,6 +524,7 @@ TICK = (
     WireField("flt", "filtered", _bools),
     WireField("mc", "mover_centres", _vectors, sparse=True),  # only in runs with moving obstacles
     WireField("mw", "mover_velocities", _vectors, sparse=True),
+    WireField("hd", "headings", _floats, sparse=True),  # only in runs of unicycles
 )
 _encode_tick = encoder(TICK)
 
@@ -534,6 +535,8 @@ def encode_tick(t: TickRecord) -> bytes:
 
 def decode_tick(data: bytes) -> TickRecord:
     t = TickRecord(**_decode_fields(TICK, _unpack("tick", data)))
+    if t.headings and len(t.headings) != len(t.positions):
+        raise DecodeError("tick: headings and positions differ in length")
     if len(t.mover_centres) != len(t.mover_velocities):
         raise DecodeError("tick: mover centres and velocities differ in length")
     n = len(t.positions)

@@ -149,7 +149,8 @@ class TickRecord:
     False for an agent the world holds still because its process is gone; filtered True where
     the agent's safety filter changed its nominal velocity that tick. mover_centres (m) and
     mover_velocities (m/s): every moving obstacle at the start of the tick and over it, in
-    obstacle order (empty when none moves).
+    obstacle order (empty when none moves). headings (rad): every unicycle's heading at the
+    start of the tick, agent-id order (empty for single integrators).
     """
 
     tick: Final[int]
@@ -163,6 +164,7 @@ class TickRecord:
     filtered: Final[tuple[bool, ...]]
     mover_centres: Final[tuple[Vector, ...]]
     mover_velocities: Final[tuple[Vector, ...]]
+    headings: Final[tuple[float, ...]]
 
     def __init__(
         self,
@@ -177,6 +179,7 @@ class TickRecord:
         filtered: tuple[bool, ...],
         mover_centres: tuple[Vector, ...] = (),
         mover_velocities: tuple[Vector, ...] = (),
+        headings: tuple[float, ...] = (),
     ) -> None:
         self.tick = tick
         self.positions = positions
@@ -189,6 +192,7 @@ class TickRecord:
         self.filtered = filtered
         self.mover_centres = mover_centres
         self.mover_velocities = mover_velocities
+        self.headings = headings
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)

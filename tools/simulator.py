@@ -23,6 +23,7 @@ from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder, Trajectory
+from shoal.world.unicycle import step as unicycle_step
 
 Progress = Callable[[int], None]
 
@@ -32,7 +33,8 @@ class Tick:
     """One tick of a run: positions (n, dim) at its start, the states announced, the
     velocities (n, dim) held during it (after the world's safety layer, which in lockstep
     changes nothing), where each agent's filter was active (n,), the positions it ends at, and
-    the moving obstacles over it (their centres at its start and velocities held)."""
+    the moving obstacles over it (their centres at its start and velocities held); for
+    unicycles their headings at its start and after it (else None)."""
 
     tick: Final[int]
     positions: Final[FloatArray]
@@ -41,6 +43,8 @@ class Tick:
     filtered: Final[tuple[bool, ...]]
     next_positions: Final[FloatArray]
     movers: Final[MoverState]
+    headings: Final[FloatArray | None]
+    next_headings: Final[FloatArray | None]
 
     def __init__(
         self,
@@ -51,6 +55,8 @@ class Tick:
         filtered: tuple[bool, ...],
         next_positions: FloatArray,
         movers: MoverState,
+        headings: FloatArray | None = None,
+        next_headings: FloatArray | None = None,
     ) -> None:
         self.tick = tick
         self.positions = positions
@@ -59,6 +65,8 @@ class Tick:
         self.filtered = filtered
         self.next_positions = next_positions
         self.movers = movers
+        self.headings = headings
+        self.next_headings = next_headings
 
 
 picklable(Tick)
@@ -74,6 +82,8 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     d = scenario.control.sensing_radius
     params = scenario.params()
     positions = scenario.initial_positions
+    bodies = scenario.unicycle
+    headings = scenario.initial_headings if bodies is not None else None
     for k in range(scenario.steps):
         crowd, sensings = obstacles.sense(k, positions, crowd, d)
         states: dict[int, AgentState] = {}
@@ -87,18 +97,30 @@ def run(scenario: Scenario) -> Iterator[Tick]:
             commanded.append(command.velocity)
             filtered.append(command.filtered)
         velocities, _ = actuate(sensings, np.array(commanded), params, scenario.dt)
-        moved = integrate(positions, velocities, scenario.dt)
+        turned = None
+        if bodies is not None and headings is not None:
+            moved, turned = unicycle_step(
+                positions, headings, velocities, bodies.lookahead, scenario.dt
+            )
+        else:
+            moved = integrate(positions, velocities, scenario.dt)
         ordered = tuple(states[i + 1] for i in range(n))
-        yield Tick(k, positions, ordered, velocities, tuple(filtered), moved, crowd)
-        positions = moved
+        yield Tick(
+            k, positions, ordered, velocities, tuple(filtered), moved, crowd, headings, turned
+        )
+        positions, headings = moved, turned
         crowd = obstacles.advance(crowd)
 
 
 def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
     """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
-    recorder = Recorder(scenario.dt, scenario.n, scenario.dim, scenario.steps,
-                        movers=len(scenario.mover_ids))  # fmt: skip
+    bodies = scenario.unicycle
+    recorder = Recorder(
+        scenario.dt, scenario.n, scenario.dim, scenario.steps, movers=len(scenario.mover_ids),
+        lookahead=None if bodies is None else bodies.lookahead,
+    )  # fmt: skip
     after = scenario.initial_positions
+    turned: FloatArray | None = scenario.initial_headings
     for t in run(scenario):
         states = t.states
         announced = (
@@ -106,8 +128,8 @@ def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Traject
             [s.sigma for s in states], [s.theta for s in states],
         )  # fmt: skip
         recorder.add(t.positions, t.velocities, announced, t.filtered,
-                     t.movers.centres, t.movers.velocities)  # fmt: skip
-        after = t.next_positions
+                     t.movers.centres, t.movers.velocities, t.headings)  # fmt: skip
+        after, turned = t.next_positions, t.next_headings
         if progress is not None:
             progress(t.tick)
-    return recorder.finish(after)
+    return recorder.finish(after, headings=turned)

@@ -67,6 +67,7 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
             and r.theta == tuple(s.theta for s in t.states)
             and r.mover_centres == t.movers.centres
             and r.mover_velocities == t.movers.velocities
+            and r.headings == (() if t.headings is None else tuple(t.headings.tolist()))
         )
         if same:
             matching += 1

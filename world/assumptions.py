@@ -413,17 +413,27 @@ def _safety(s: Scenario) -> None:
     c = s.control
     if c.safety != "filter":
         return
-    if c.safety_margin < s.agent_radius:
+    reach, what = s.agent_radius, "agent_radius"
+    if s.unicycle is not None:  # the body is l behind the point, and the point leaves its chord
+        reach, what = s.body_reach, "agent_radius + l + v_max²·dt²/(2l) (a unicycle's reach)"
+    if c.safety_margin < reach:
         raise ScenarioError(
             "control.safety_margin",
-            f"ρ = {c.safety_margin} m is less than agent_radius = {s.agent_radius} m: the "
+            f"ρ = {c.safety_margin} m is less than {what} = {reach:.6g} m: the "
             "filter's guard circles would not keep the agents' bodies off the obstacles",
         )
-    if s.separation < 2 * s.agent_radius:
+    if s.separation < 2 * reach:
         raise ScenarioError(
             "control.separation",
-            f"{s.separation} m is less than 2·agent_radius = {2 * s.agent_radius} m: the filter "
+            f"{s.separation} m is less than 2·{what} = {2 * reach:.6g} m: the filter "
             "would let two agents' bodies touch",
+        )
+    if s.unicycle is not None and s.speed_limit > s.unicycle.point_speed_cap:
+        raise ScenarioError(
+            "control.speed_limit",
+            f"{s.speed_limit} m/s is faster than the unicycle's point can move under its "
+            f"limits whatever its heading ({s.unicycle.point_speed_cap:.6g} m/s: max_speed, "
+            "lookahead·max_turn_rate and the wheels')",
         )
     step = s.largest_step
     if step <= 0:

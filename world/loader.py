@@ -26,11 +26,11 @@ from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoin
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
 from shoal.world.movers import Drift, Motion, Person, Route
-from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario
+from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario, Unicycle
 
 _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
-    "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape",
+    "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape", "kinematics",
 }  # fmt: skip
 # No length, time or gain in a scenario is larger: squares and sums stay far from overflow.
 _LARGEST = 1e9
@@ -122,6 +122,7 @@ def scenario_from_dict(
     dim = _integer(data.get("dim", 2), "dim")
     if dim not in (2, 3):
         raise ScenarioError("dim", f"must be 2 or 3, got {dim}")
+    unicycle = _kinematics(data.get("kinematics"), dim)
     dt = _positive(data.get("dt", 0.01), "dt")
     duration = _positive(data.get("duration", 20.0), "duration")
     if duration < dt:
@@ -153,7 +154,14 @@ def scenario_from_dict(
         agent_radius=_non_negative(data.get("agent_radius", 0.05), "agent_radius"),
         tolerance_factor=_positive(data.get("tolerance_factor", 10.0), "tolerance_factor"),
         source=source,
+        unicycle=unicycle,
     )
+    if unicycle is not None and scenario.mover_ids:
+        raise ScenarioError(
+            f"obstacles[{scenario.mover_ids[0]}].moves",
+            "moving obstacles with unicycles: not yet (their rows assume a single integrator's "
+            "body; issue 31)",
+        )
     check_assumptions(scenario)
     return scenario
 
@@ -266,6 +274,40 @@ def _list(value: Any, field: str) -> list[Any]:
 _SAFETY_MODES = tuple(Safety)
 
 
+_UNICYCLE = ("lookahead", "max_speed", "max_turn_rate")
+_WHEELS = ("wheel_radius", "axle", "max_wheel_speed")
+
+
+def _kinematics(value: Any, dim: int) -> Unicycle | None:
+    """``kinematics``: absent or ``{model: single}`` for the paper's single integrators;
+    ``{model: unicycle, lookahead, max_speed, max_turn_rate}`` (and optionally all three of
+    ``wheel_radius``, ``axle``, ``max_wheel_speed``) for unicycles."""
+    if value is None:
+        return None
+    data = _mapping(value, "kinematics")
+    _no_unknown(data, {"model", *_UNICYCLE, *_WHEELS}, "kinematics")
+    model = data.get("model", "single")
+    if model not in ("single", "unicycle"):
+        raise ScenarioError("kinematics.model", f"must be single or unicycle, got {_shown(model)}")
+    given = sorted(k for k in (*_UNICYCLE, *_WHEELS) if k in data)
+    if model == "single":
+        if given:
+            raise ScenarioError(f"kinematics.{given[0]}", "is for model: unicycle")
+        return None
+    if dim != 2:
+        raise ScenarioError(
+            "kinematics.model", f"unicycles drive in the plane: dim must be 2, got {dim}"
+        )
+    for key in _UNICYCLE:
+        if key not in data:
+            raise _missing(f"kinematics.{key}", "a positive number")
+    wheels = [k for k in _WHEELS if k in data]
+    if wheels and len(wheels) != len(_WHEELS):
+        missing = next(k for k in _WHEELS if k not in data)
+        raise _missing(f"kinematics.{missing}", "with the other wheel figures, a positive number")
+    return Unicycle(**{k: _positive(data[k], f"kinematics.{k}") for k in (*_UNICYCLE, *wheels)})
+
+
 def _control(value: Any) -> Control:
     data = dict(_mapping(value, "control"))
     _no_unknown(data, {*CONTROL_DEFAULTS, "safety", "speed_limit", "separation"}, "control")
@@ -356,7 +398,7 @@ def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tupl
     for k, item in enumerate(raw):
         where = f"agents[{k}]"
         entry = _mapping(item, where)
-        _no_unknown(entry, {"offset", "initial"}, where)
+        _no_unknown(entry, {"offset", "initial", "heading"}, where)
         offset = _vector(entry.get("offset"), f"{where}.offset", dim)
         jitter = rng.uniform(-spread, spread, size=dim)  # drawn for every agent: stable streams
         if k == 0:
@@ -372,7 +414,12 @@ def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tupl
         else:
             initial = tuple(float(x) for x in start + np.asarray(offset) + jitter)
         given = k > 0 and "initial" in entry
-        spec = AgentSpec(agent_id=k + 1, initial=initial, offset=offset, given_initial=given)
+        heading = _number(entry.get("heading", 0.0), f"{where}.heading")
+        if not -2 * math.pi <= heading <= 2 * math.pi:
+            raise ScenarioError(f"{where}.heading", f"{heading} rad is outside [−2π, 2π]")
+        spec = AgentSpec(
+            agent_id=k + 1, initial=initial, offset=offset, given_initial=given, heading=heading
+        )
         agents.append(spec)
     return tuple(agents)
 

@@ -64,7 +64,8 @@ class Summary:
     min_mover_clearance: float | None = None  # m: least agent-to-edge distance to a moving one
     # The safety theorem's own bounds (docs/safety.md): both ≥ 0 with the filter, up to
     # contact_slack. guard_margin: min_clearance − ρ (None without standing obstacles);
-    # separation_margin: min_interagent_distance − the separation. m.
+    # separation_margin: min_interagent_distance − the separation; for unicycles each bound
+    # less the points' arc departure (Scenario.arc_departure, twice for a pair). m.
     guard_margin: float | None = None
     separation_margin: float = 0.0
     contact_slack: float = 0.0  # m: an overlap this shallow is rounding, not a collision
@@ -246,8 +247,11 @@ def summarize(
         f_max=peak_speed(scenario.path),
     )
     rho = scenario.control.safety_margin
-    collisions = swept.obstacle_contacts(scenario.agent_radius)
-    collisions += swept.agent_contacts(scenario.agent_radius)
+    departure = scenario.arc_departure
+    # A unicycle's body is judged by the disc about its point's chord that holds it over the
+    # tick (body_reach, world/unicycle.py): never a contact missed, possibly one that was not.
+    collisions = swept.obstacle_contacts(scenario.body_reach)
+    collisions += swept.agent_contacts(scenario.body_reach)
     min_clearance = float(swept.clearance.min()) if swept.clearance.size else None
     min_mover_clearance = None
     if scenario.mover_ids:
@@ -285,8 +289,10 @@ def summarize(
         min_mover_clearance=min_mover_clearance,
         agent_at_fault=at_fault,
         obstacle_at_fault=len(touches) - at_fault,
-        guard_margin=None if min_clearance is None else min_clearance - rho,
-        separation_margin=min_distance - scenario.separation,
+        # A unicycle's point may leave its certified straight step by the arc departure
+        # (world/unicycle.py): the theorem's bounds for its chord are that much lower.
+        guard_margin=None if min_clearance is None else min_clearance - (rho - departure),
+        separation_margin=min_distance - (scenario.separation - 2 * departure),
         contact_slack=swept.slack,
         arrived=came.arrived,
         arrival_time=came.time,

@@ -34,6 +34,7 @@ from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder
+from shoal.world.unicycle import step as unicycle_step
 from shoal.world.watch import LeaderWatch
 
 
@@ -140,7 +141,12 @@ class World(Declarations):
         obstacles = Obstacles.of(s)
         crowd = obstacles.start(s)
         positions = s.initial_positions
-        recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids))
+        bodies = s.unicycle
+        headings = s.initial_headings if bodies is not None else None
+        recorder = Recorder(
+            s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids),
+            lookahead=None if bodies is None else bodies.lookahead,
+        )  # fmt: skip
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
         latest = self.latest
@@ -168,14 +174,19 @@ class World(Declarations):
             commanded = _commanded(reports, s.n, s.dim)
             velocities, fixed = actuate(sensings, commanded, params, s.dt)
             corrected += fixed
-            row = _record(k, positions, velocities, reports, self.alive, crowd)
+            row = _record(k, positions, velocities, reports, self.alive, crowd, headings)
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
-            positions = integrate(positions, velocities, s.dt)
+            if bodies is not None and headings is not None:
+                positions, headings = unicycle_step(
+                    positions, headings, velocities, bodies.lookahead, s.dt
+                )
+            else:
+                positions = integrate(positions, velocities, s.dt)
             crowd = obstacles.advance(crowd)
             if self.aborted is not None:
                 break
-        traj = recorder.finish(positions, crowd.centres)
+        traj = recorder.finish(positions, crowd.centres, headings)
         summary = {
             **summarize(s, traj, clock=self.options.clock).as_dict(),
             **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
@@ -343,8 +354,10 @@ def _record(
     reports: dict[int, tuple[AgentState, Command]],
     alive: set[int],
     crowd: MoverState,
+    headings: np.ndarray[Any, Any] | None = None,
 ) -> TickRecord:
-    """The ground truth of tick k, with the velocities the agents really hold during it."""
+    """The ground truth of tick k, with the velocities the agents really hold during it (and
+    for unicycles their headings at its start)."""
     n = positions.shape[0]
     omega, bid, sigma, theta = [False] * n, [1.0] * n, [1.0] * n, [0.0] * n
     filtered = [False] * n
@@ -364,6 +377,7 @@ def _record(
         filtered=tuple(filtered),
         mover_centres=crowd.centres,
         mover_velocities=crowd.velocities,
+        headings=() if headings is None else tuple(headings.tolist()),
     )
 
 

@@ -51,6 +51,7 @@ class AgentSpec:
     initial: Vector
     offset: Vector
     given_initial: bool = False
+    heading: float = 0.0  # rad: a unicycle's initial heading (ignored for single integrators)
 
 
 # Realtime: ticks one round of Algorithm 1 may take. An agent acts on the freshest state it has
@@ -70,6 +71,31 @@ class Control(Gains):
 
     speed_limit: float | None = None
     separation: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Unicycle:
+    """Every agent a unicycle (world/unicycle.py): the point ``lookahead`` l m ahead of the axle
+    follows the laws. ``max_speed`` |v| ≤ m/s and ``max_turn_rate`` |ω| ≤ rad/s; optionally
+    differential-drive wheels of ``wheel_radius`` m on an ``axle`` m long, each turning at most
+    ``max_wheel_speed`` rad/s."""
+
+    lookahead: float
+    max_speed: float
+    max_turn_rate: float
+    wheel_radius: float | None = None
+    axle: float | None = None
+    max_wheel_speed: float | None = None
+
+    @property
+    def point_speed_cap(self) -> float:
+        """m/s: the fastest the point may move so that every limit holds whatever the heading
+        (|v| ≤ |u|, |ω| ≤ |u|/l, a wheel's rim speed ≤ |v| + |ω|·axle/2)."""
+        cap = min(self.max_speed, self.lookahead * self.max_turn_rate)
+        if self.wheel_radius is not None and self.axle is not None and self.max_wheel_speed:
+            rim = self.wheel_radius * self.max_wheel_speed
+            cap = min(cap, rim / (1.0 + self.axle / (2.0 * self.lookahead)))
+        return cap
 
 
 @dataclass(frozen=True)
@@ -94,6 +120,7 @@ class Scenario:
     )
     tolerance_factor: float  # formation converged when every error ≤ this × β·dt
     source: str = ""  # the YAML text it was loaded from
+    unicycle: Unicycle | None = None  # None: single integrators (the paper's model)
 
     @property
     def n(self) -> int:
@@ -125,8 +152,36 @@ class Scenario:
 
     @property
     def initial_positions(self) -> FloatArray:
-        """(n, dim) initial positions, m."""
+        """(n, dim) initial positions, m (of a unicycle: its point, l ahead of the axle)."""
         return np.asarray([a.initial for a in self.agents], dtype=np.float64)
+
+    @property
+    def initial_headings(self) -> FloatArray:
+        """(n,) initial headings, rad (unicycles)."""
+        return np.asarray([a.heading for a in self.agents], dtype=np.float64)
+
+    @property
+    def lookahead(self) -> float | None:
+        """l, m, for unicycles (their point ahead of the axle); None for single integrators."""
+        return None if self.unicycle is None else self.unicycle.lookahead
+
+    @property
+    def arc_departure(self) -> float:
+        """m: how far a unicycle's point may leave the straight step the safety filter certified,
+        v_max²·dt²/(2l) (world/unicycle.py); 0 for single integrators."""
+        u = self.unicycle
+        return 0.0 if u is None else self.speed_limit**2 * self.dt**2 / (2.0 * u.lookahead)
+
+    @property
+    def body_reach(self) -> float:
+        """m: the radius about an agent's point that holds its body over any whole tick, which
+        the safety filter's guards and cells must cover: ``agent_radius``, and for a unicycle
+        also l (the body's centre is behind the point) and the point's departure from its
+        straight step, v_max²·dt²/(2l) (world/unicycle.py)."""
+        u = self.unicycle
+        if u is None:
+            return self.agent_radius
+        return self.agent_radius + u.lookahead + self.arc_departure
 
     @cached_property
     def standing_ids(self) -> tuple[int, ...]:
@@ -187,7 +242,10 @@ class Scenario:
     def speed_limit(self) -> float:
         """v_max, m/s: the control's, or by default the largest the theorem admits."""
         c = self.control
-        return self.largest_step / self.dt if c.speed_limit is None else c.speed_limit
+        if c.speed_limit is not None:
+            return c.speed_limit
+        largest = self.largest_step / self.dt
+        return largest if self.unicycle is None else min(largest, self.unicycle.point_speed_cap)
 
     def epoch_ticks(self, clock: Clock = Clock.LOCKSTEP) -> int:
         """Ticks per epoch of Algorithm 1 under ``clock``: L_G in lockstep; in realtime

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import TickRecord
+from shoal.world.unicycle import step as unicycle_step
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,8 @@ class Trajectory:
     movers : (T+1, m, dim) m, every moving obstacle's centre at the start of every tick and
         after the last, in scenario order; mover_velocities : (T, m, dim) m/s, held over each
         tick. Both None in a run where nothing moves (and then not part of :meth:`arrays`).
+    headings : (T+1, n) rad, every unicycle's heading at the start of every tick and after the
+        last; None for single integrators (and then not part of :meth:`arrays`).
     """
 
     dt: float
@@ -42,14 +45,23 @@ class Trajectory:
     filtered: NDArray[np.bool_]
     movers: FloatArray | None = None
     mover_velocities: FloatArray | None = None
+    headings: FloatArray | None = None
 
     @classmethod
-    def from_records(cls, records: Sequence[TickRecord], dt: float) -> Trajectory:
+    def from_records(
+        cls, records: Sequence[TickRecord], dt: float, lookahead: float | None = None
+    ) -> Trajectory:
         """The world's tick records (in tick order) as a trajectory; the positions after the
-        last record are integrated exactly as the world does (positions + dt · velocities)."""
+        last record are integrated exactly as the world does (positions + dt · velocities;
+        for unicycles, whose records carry headings, their arcs with ``lookahead`` l)."""
         first = records[0]
         n, dim = len(first.positions), len(first.positions[0])
-        recorder = Recorder(dt, n, dim, len(records), movers=len(first.mover_centres))
+        if first.headings and lookahead is None:
+            raise ValueError("tick records of unicycles: give their lookahead")
+        recorder = Recorder(
+            dt, n, dim, len(records), movers=len(first.mover_centres),
+            lookahead=lookahead if first.headings else None,
+        )  # fmt: skip
         for r in records:
             recorder.record(r)
         return recorder.finish()
@@ -84,6 +96,7 @@ class Trajectory:
                 filtered=z["filtered"],
                 movers=z.get("movers"),
                 mover_velocities=z.get("mover_velocities"),
+                headings=z.get("headings"),
             )
 
     ARRAYS: ClassVar[tuple[str, ...]] = (
@@ -100,8 +113,9 @@ class Trajectory:
 
     def names(self) -> tuple[str, ...]:
         """The names of :meth:`arrays`: :data:`ARRAYS`, then :data:`MOVER_ARRAYS` in a run
-        with moving obstacles."""
-        return self.ARRAYS if self.movers is None else (*self.ARRAYS, *self.MOVER_ARRAYS)
+        with moving obstacles, then ``headings`` in a run of unicycles."""
+        names = self.ARRAYS if self.movers is None else (*self.ARRAYS, *self.MOVER_ARRAYS)
+        return names if self.headings is None else (*names, "headings")
 
     def arrays(self) -> tuple[NDArray[Any], ...]:
         """Every recorded array, in :meth:`names` order."""
@@ -132,7 +146,16 @@ class Recorder:
     ``steps`` ticks; a run that ends early keeps the ticks it recorded. ``movers``: how many
     moving obstacles the run has (0: the trajectory has no mover arrays)."""
 
-    def __init__(self, dt: float, n: int, dim: int, steps: int, *, movers: int = 0) -> None:
+    def __init__(
+        self,
+        dt: float,
+        n: int,
+        dim: int,
+        steps: int,
+        *,
+        movers: int = 0,
+        lookahead: float | None = None,
+    ) -> None:
         self.dt = dt
         self.ticks = 0
         self._positions = np.empty((steps + 1, n, dim))
@@ -142,6 +165,8 @@ class Recorder:
         self._bid, self._sigma, self._theta = (np.empty((steps, n)) for _ in range(3))
         self._movers = np.empty((steps + 1, movers, dim)) if movers else None
         self._mover_velocities = np.empty((steps, movers, dim)) if movers else None
+        self.lookahead = lookahead  # unicycles: their headings are recorded too
+        self._headings = np.empty((steps + 1, n)) if lookahead is not None else None
 
     def add(
         self,
@@ -151,6 +176,7 @@ class Recorder:
         filtered: Sequence[bool],
         mover_centres: Any = (),
         mover_velocities: Any = (),
+        headings: Any = (),
     ) -> None:
         """The next tick: positions (n, dim) at its start, velocities (n, dim) held during it,
         what the agents announced as (Ω, bid, σ, θ), each in agent order, where each agent's
@@ -164,22 +190,29 @@ class Recorder:
         if self._movers is not None and self._mover_velocities is not None:
             self._movers[k] = mover_centres
             self._mover_velocities[k] = mover_velocities
+        if self._headings is not None:
+            self._headings[k] = headings
         self.ticks = k + 1
 
     def record(self, r: TickRecord) -> None:
         """The next tick from the world's record of it."""
         announced = (r.omega, r.bid, r.sigma, r.theta)
         self.add(r.positions, r.velocities, announced, r.filtered,
-                 r.mover_centres, r.mover_velocities)  # fmt: skip
+                 r.mover_centres, r.mover_velocities, r.headings)  # fmt: skip
 
-    def finish(self, positions: Any = None, movers: Any = None) -> Trajectory:
+    def finish(self, positions: Any = None, movers: Any = None, headings: Any = None) -> Trajectory:
         """The trajectory of the ticks added. ``positions`` (n, dim) and ``movers`` (m, dim):
         where the agents and the moving obstacles are after the last tick; None integrates
-        them from the last tick (start + dt · velocity), as the world does."""
+        them from the last tick (start + dt · velocity), as the world does for single
+        integrators and obstacles; ``headings`` (n,): the unicycles' after the last tick (None:
+        integrated from the tick records' positions and velocities, as the world does)."""
         k = self.ticks
         if k == 0:
             raise ValueError("a trajectory needs at least one tick")
         dt = self.dt
+        if self._headings is not None and self.lookahead is not None and headings is None:
+            last = self._positions[k - 1], self._headings[k - 1], self._velocities[k - 1]
+            positions, headings = unicycle_step(*last, self.lookahead, dt)
         self._positions[k] = (
             self._positions[k - 1] + dt * self._velocities[k - 1]
             if positions is None
@@ -195,6 +228,9 @@ class Recorder:
             mover_arrays = {
                 "movers": self._movers[: k + 1], "mover_velocities": self._mover_velocities[:k]
             }  # fmt: skip
+        if self._headings is not None:
+            self._headings[k] = headings
+            mover_arrays["headings"] = self._headings[: k + 1]
         return Trajectory(
             dt=dt,
             positions=self._positions[: k + 1],

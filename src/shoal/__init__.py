@@ -136,7 +136,7 @@ def read_log(path: str | os.PathLike[str]) -> Log:
     if "scenario" not in docs:
         raise ValueError(f"{log}: no scenario recorded in the log")
     scenario = parse_scenario(str(docs["scenario"].get("yaml", "")))
-    return Log(scenario, read_trajectory(log, dt=scenario.dt))
+    return Log(scenario, read_trajectory(log, dt=scenario.dt, lookahead=scenario.lookahead))
 
 
 def verify(path: str | os.PathLike[str]) -> Verdict:

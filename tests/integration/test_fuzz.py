@@ -514,7 +514,8 @@ def retyped(p: Pick, value: Any) -> Any:
     if type(value) is float:
         options += [int(value) if abs(value) < 2**63 else 0, -value, value * 1e308, math.nan]
     if type(value) is int:
-        options += [float(value), value != 0, -value if value < 2**63 else 0, 2**64 - 1]
+        near = float(value) if value.bit_length() < 1024 else 1e308  # an int past any float
+        options += [near, value != 0, -value if value < 2**63 else 0, 2**64 - 1]
     if type(value) is bool:
         options += [int(value), float(value)]
     if type(value) is str:
@@ -777,7 +778,7 @@ PARSED = {name: yaml.safe_load(text) for name, text in BUILTINS.items()}
 _ROOTS = {
     "yaml", "scenario", "name", "description", "dim", "seed", "dt", "duration", "agent_radius",
     "tolerance_factor", "control", "graph", "agents", "initial_noise", "leader", "obstacles",
-    "reshape",
+    "reshape", "kinematics",
 }  # fmt: skip
 
 

@@ -8,6 +8,8 @@ from pathlib import Path
 from shoal.agent.delivery import AgeStats, Dropper
 from shoal.bus import codec
 from shoal.bus.report import FIGURES, report_body, reports_in, summary_entries
+from shoal.tools.commands.world import scenario_of
+from shoal.tools.procs.children import WorldSpec
 from shoal.tools.procs.launch import _hand_over
 from shoal.world.loader import load_scenario
 
@@ -45,8 +47,8 @@ def test_the_world_is_handed_the_text_the_supervisor_parsed_under_the_same_name(
     tmp_path: Path,
 ) -> None:
     """Issue 13: the scenario was parsed by `shoal run` and again, from its file, by the world
-    (the file may change in between). The world now gets a copy of the parsed text, named so
-    that it loads under the same name — even a name that is no file name."""
+    (the file may change in between). The world now gets a copy of the parsed text and the
+    name it was parsed under (`--name`) — even a name that is no file name."""
     for stem, text in (
         ("mine", load_scenario("sinusoid").source.replace("name: sinusoid\n", "")),
         ("my run (2)", load_scenario("passage").source.replace("name: passage\n", "")),
@@ -59,7 +61,7 @@ def test_the_world_is_handed_the_text_the_supervisor_parsed_under_the_same_name(
         folder.mkdir()
         handed = _hand_over(parsed, folder)
         original.write_text("changed: after it was parsed\n")  # the world never sees this
-        again = load_scenario(handed)
+        again = scenario_of(WorldSpec(scenario=str(handed), name=parsed.name, run_id="r"))
         assert again.name == parsed.name and again.steps == parsed.steps
         assert again.agents == parsed.agents and again.obstacles == parsed.obstacles
 

@@ -16,6 +16,13 @@ from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.children import WorldSpec, click_options
 from shoal.tools.procs.session import client_session
 from shoal.world.process import World, WorldAbort, WorldOptions
+from shoal.world.scenario import Scenario
+
+
+def scenario_of(spec: WorldSpec) -> Scenario:
+    """The scenario the world runs: its file (or built-in), under ``--name`` if given."""
+    scn = load_for_cli(spec.scenario)
+    return scn if spec.name is None else dataclasses.replace(scn, name=spec.name)
 
 
 @click.command()
@@ -25,9 +32,7 @@ def world(as_json: bool, **params: Any) -> None:
     """Simulate kinematics and sensing for the agents of run RUN, in lockstep."""
     exit_on_signals()
     spec = WorldSpec.of(params)
-    scn = load_for_cli(spec.scenario)
-    if spec.name is not None:
-        scn = dataclasses.replace(scn, name=spec.name)
+    scn = scenario_of(spec)
     options = WorldOptions(
         run=spec.run_id,
         expect=spec.expect,

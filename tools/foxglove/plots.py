@@ -146,17 +146,19 @@ def topics_of(scenario: Scenario) -> dict[str, str]:
     return {t: name for t, name in TOPICS.items() if not absent.get(t, False)}
 
 
-def trajectory_of(records: Sequence[TickRecord], dt: float) -> Trajectory:
+def trajectory_of(
+    records: Sequence[TickRecord], dt: float, lookahead: float | None = None
+) -> Trajectory:
     """The records as a Trajectory (world/metrics.py's input); the row after the last record is
     integrated as the world does."""
-    return Trajectory.from_records(records, dt)
+    return Trajectory.from_records(records, dt, lookahead)
 
 
 def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, Json]]:
     """For each record, its message on every scalar topic (topic → message)."""
     if not records:
         return []
-    s, traj = scenario, trajectory_of(records, scenario.dt)
+    s, traj = scenario, trajectory_of(records, scenario.dt, scenario.lookahead)
     rows = len(records)
     errors = _rounded(formation_errors(s, traj) if s.n > 1 else np.zeros((rows, 0)))
     pairs = _rounded(pair_distances(traj)[:-1]) if s.n > 1 else None

@@ -40,9 +40,10 @@ def read_ticks(path: Path) -> list[TickRecord]:
     return sorted(records, key=lambda r: r.tick)
 
 
-def read_trajectory(path: Path, *, dt: float) -> Trajectory:
+def read_trajectory(path: Path, *, dt: float, lookahead: float | None = None) -> Trajectory:
     """The run's trajectory as the world recorded it; the last positions are integrated from
-    the last record exactly as the world does (positions + dt * velocities)."""
+    the last record exactly as the world does (positions + dt * velocities; a unicycle's arc
+    with ``lookahead``, :attr:`Scenario.lookahead`)."""
     records = read_ticks(path)
     if not records:
         raise ValueError(f"{path}: no tick records")
@@ -50,7 +51,19 @@ def read_trajectory(path: Path, *, dt: float) -> Trajectory:
     if ticks != list(range(len(ticks))):  # a gap would shift every later row by a tick
         raise ValueError(f"{path}: the tick records are not ticks 0..{ticks[-1]} once each: "
                          f"{_gaps(ticks)}")  # fmt: skip
-    return Trajectory.from_records(records, dt)
+    if records[0].headings and lookahead is None:  # unicycles: l is in the recorded scenario
+        lookahead = _recorded_lookahead(path)
+    return Trajectory.from_records(records, dt, lookahead)
+
+
+def _recorded_lookahead(path: Path) -> float:
+    document = read_documents(path).get("scenario")
+    if document is None:
+        raise ValueError(f"{path}: tick records of unicycles but no scenario to say their l")
+    lookahead = recorded_scenario(document).lookahead
+    if lookahead is None:
+        raise ValueError(f"{path}: tick records with headings from a scenario without unicycles")
+    return lookahead
 
 
 def _gaps(ticks: list[int]) -> str:
