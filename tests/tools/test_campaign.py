@@ -27,6 +27,7 @@ from shoal.tools.campaign.fields import (
     load_field,
     make_field,
     needed_contraction,
+    unicycle_for,
 )
 from shoal.tools.campaign.report import render, report
 from shoal.tools.campaign.runner import Outcome, judge
@@ -342,3 +343,29 @@ def test_a_campaign_with_the_boundary_layer_says_so_with_its_figures() -> None:
     text = CliRunner().invoke(main, ["campaign", *args]).output
     assert "boundary layer φ = 2·β·dt" in text
     assert rep["sets"]["hard/2d"]["arrived"] == 1  # field 73 arrives with it (test_hard_fields)
+
+
+def test_kinematics_unicycle_turns_the_fields_into_unicycles_facing_anywhere() -> None:
+    """--kinematics unicycle: the base's formation as unicycles with figures derived from it
+    (unicycle_for), headings drawn per field; every field still admissible, none collides (the
+    body judged by its reach about the point's chord), and the report says so."""
+    base = load_scenario("obstacles")
+    opts = FieldOptions(kinematics="unicycle")
+    fields = [make_field(base, seed, "inside", opts) for seed in range(3)]
+    robot = unicycle_for(base)
+    assert all(f.unicycle == robot for f in fields)
+    assert robot.lookahead == pytest.approx((0.2 - 0.05) / 2)
+    headings = {tuple(f.initial_headings) for f in fields}
+    assert len(headings) == 3  # drawn per field
+    assert all(f.control.safety_margin >= f.body_reach for f in fields)
+    code, rep = _campaign("--fields", "4", "--kinematics", "unicycle", "--jobs", "1")
+    assert code == 0 and rep["kinematics"] == "unicycle" and rep["sets"]["inside"]["collided"] == 0
+
+
+def test_unicycles_are_refused_where_they_cannot_go() -> None:
+    hard = CliRunner().invoke(main, ["campaign", "--kind", "hard", "--kinematics", "unicycle"])
+    assert hard.exit_code == 2 and "not with --kind hard" in hard.output
+    grid = CliRunner().invoke(main, ["scenarios", "new", "-n", "6", "--dim", "3"])
+    assert grid.exit_code == 0, grid.output
+    with pytest.raises(FieldError, match="drive in the plane"):
+        make_field(parse_scenario(grid.stdout), 0, "inside", FieldOptions(kinematics="unicycle"))

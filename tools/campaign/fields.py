@@ -40,7 +40,7 @@ from shoal.world import assumptions
 from shoal.world.errors import ScenarioError, ScenarioWarning, WorldError
 from shoal.world.graph import adjacency, reached_from_leader
 from shoal.world.loader import parse_scenario, read_obstacles, scenario_from_dict
-from shoal.world.scenario import Obstacle, Scenario
+from shoal.world.scenario import Obstacle, Scenario, Unicycle
 
 
 @dataclass(frozen=True)
@@ -117,6 +117,9 @@ class FieldOptions:
     safety : replaces the base's ``control.safety`` ("filter" or "paper": Algorithm 2 alone).
     boundary_layer : K > 0 runs every field with the optional boundary layer φ = K·β·dt,
         sat(e/φ) in place of the paper's sign(e) (docs/campaign.md, Arrival); 0 keeps the base's.
+    kinematics : None keeps the base's; "unicycle" makes every agent a unicycle (the base's own
+        figures, or :func:`unicycle_for` a base of single integrators), each starting at a
+        heading drawn from the field's seed; "single" makes them single integrators.
     """
 
     length: float = 14.0
@@ -131,6 +134,7 @@ class FieldOptions:
     tries: int = 200
     safety: str | None = None
     boundary_layer: float = 0.0
+    kinematics: str | None = None
 
 
 # -- what a field breaks ------------------------------------------------------------------------
@@ -285,6 +289,39 @@ def _faster(
     return dataclasses.replace(path, speed=path.speed * k), moving / k
 
 
+def unicycle_for(base: Scenario) -> Unicycle:
+    """Unicycles for a base of single integrators: l = (ρ − agent_radius)/2, leaving the other
+    half of the margin to the arc departure; |v| ≤ 1.5·β·√dim, so that the sign term's
+    chatter, |(β, …, β)|, never meets the cap; ω ≤ that over l (the point's cap is then |v|'s)."""
+    c = base.control
+    lookahead = (c.safety_margin - base.agent_radius) / 2
+    speed = 1.5 * c.beta * math.sqrt(base.dim)
+    return Unicycle(lookahead=lookahead, max_speed=speed, max_turn_rate=speed / lookahead)
+
+
+def _kinematics(base: Scenario, seed: int, opts: FieldOptions) -> dict[str, Any]:
+    """The field's ``kinematics`` and each agent's heading, as ``opts.kinematics`` says."""
+    robot = base.unicycle
+    if opts.kinematics == "single":
+        robot = None
+    elif opts.kinematics == "unicycle" and robot is None:
+        robot = unicycle_for(base)
+    if robot is None:
+        return {}
+    if base.dim != 2:
+        raise FieldError(f"unicycles drive in the plane: {base.name} has dim {base.dim}")
+    given = {f.name: getattr(robot, f.name) for f in dataclasses.fields(robot)}
+    rng = np.random.default_rng([seed, 31])
+    headings = rng.uniform(-math.pi, math.pi, size=base.n)
+    return {
+        "kinematics": {"model": "unicycle", **{k: v for k, v in given.items() if v is not None}},
+        "agents": [
+            {"offset": list(a.offset), "heading": float(h)}
+            for a, h in zip(base.agents, headings, strict=True)
+        ],
+    }
+
+
 def _skeleton(
     base: Scenario,
     path: PathSpec,
@@ -319,6 +356,7 @@ def _skeleton(
         "graph": {"directed": base.directed, "edges": [list(e) for e in base.edges]},
         "agents": [{"offset": list(a.offset)} for a in base.agents],
         "initial_noise": min(opts.initial_noise, _noise_room(base)),
+        **_kinematics(base, seed, opts),
         "leader": _path_data(path),
         "reshape": [
             {"at": round(r.tick * base.dt, 9), "scale": r.scale, "rotate": r.rotate}

@@ -221,6 +221,8 @@ def render(rep: dict[str, Any]) -> str:
         notes += "; /paper: the same fields, filter off"
     if any(mode in HARD_MODES for mode in rep["sets"]):
         notes += "; hard/2d, hard/3d: the adversarial generator's fields (--kind hard)"
+    if rep.get("kinematics") == "unicycle":
+        notes += "; every agent a unicycle (contacts: the body's reach about its point's chord)"
     if rep.get("boundary_layer"):
         notes += (
             f"; every field with the boundary layer φ = {rep['boundary_layer']:g}·β·dt, "

@@ -149,8 +149,9 @@ def measure(
         seed=field.seed,
         name=field.name,
         obstacles=len(field.obstacles),
-        obstacle_collisions=swept.obstacle_contacts(field.agent_radius) + summary.agent_at_fault,
-        agent_collisions=swept.agent_contacts(field.agent_radius),  # people: by fault, above
+        # body_reach: a unicycle's body about its point's chord (world/unicycle.py)
+        obstacle_collisions=swept.obstacle_contacts(field.body_reach) + summary.agent_at_fault,
+        agent_collisions=swept.agent_contacts(field.body_reach),  # people: by fault, above
         min_clearance=math.inf if summary.min_clearance is None else summary.min_clearance,
         a3_contracted=bool(field.standing_ids) and spacing <= 2 * float(field.obstacle_radii.max()),
         seconds=seconds,

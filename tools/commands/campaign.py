@@ -115,6 +115,13 @@ def _count(text: str) -> tuple[int, int]:
 @click.option("--spacing", default=0.0, help="Least free distance between obstacles, m.")
 @click.option("--sigma-max", type=float, help="Override σ_max (1: no contraction).")
 @click.option(
+    "--kinematics",
+    type=click.Choice(["single", "unicycle"]),
+    help="Make every agent a single integrator or a unicycle (a base of single integrators "
+    "gets unicycles with l = (ρ − agent_radius)/2, |v| ≤ 1.5·β·√dim; headings drawn per field) "
+    "[default: the base's].",
+)
+@click.option(
     "--boundary-layer", default=0.0, show_default=True, type=click.FloatRange(min=0.0),
     metavar="K", help="Run every field with the optional boundary layer φ = K·β·dt, sat(e/φ) in "
     "place of the paper's sign(e) (0: the paper's law; docs/campaign.md, Arrival).",
@@ -195,6 +202,7 @@ def campaign(
     obstacles: str,
     spacing: float,
     sigma_max: float | None,
+    kinematics: str | None,
     boundary_layer: float,
     safety: str,
     swarm: int | None,
@@ -223,7 +231,7 @@ def campaign(
         return
     options = FieldOptions(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max,
-        boundary_layer=boundary_layer,
+        boundary_layer=boundary_layer, kinematics=kinematics,
     )  # fmt: skip
     scn = load_for_cli(base or ("crossing" if people is not None else "obstacles"))
     crowd = None
@@ -234,6 +242,8 @@ def campaign(
             count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
         )
     hard = kind == "hard"
+    if hard and kinematics == "unicycle":
+        raise click.UsageError("--kinematics unicycle: not with --kind hard yet (issue 31)")
     if hard and (swarm is not None or people is not None or safety != "filter"):
         raise click.UsageError(
             "--kind hard draws fields for the reference simulator with the safety filter: "
@@ -269,6 +279,8 @@ def campaign(
     rep = report(outcomes, time.perf_counter() - start, jobs)
     if boundary_layer > 0:  # said with every figure: not the paper's law
         rep["boundary_layer"] = boundary_layer
+    if kinematics is not None:
+        rep["kinematics"] = kinematics
     if save_failures is not None:
         written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
         for failure in rep["failures"]:
