@@ -33,6 +33,7 @@ from shoal.world.metrics import (
 )
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
+from shoal.world.unicycle import body_centres
 
 SNAPSHOTS = 6  # formation snapshots drawn along the trajectories (start and end included)
 
@@ -254,6 +255,14 @@ def _draw_formation(
             alpha=alpha,
             zorder=4,
         )
+    headings, lookahead = view.traj.headings, sc.lookahead
+    if headings is not None and lookahead is not None:  # unicycles: body and heading, 2-D
+        axles = body_centres(full, headings[k], lookahead)
+        for i in range(sc.n):
+            ax.add_patch(Circle(tuple(axles[i]), sc.agent_radius, fill=False, color=colour(i),
+                                lw=0.8, alpha=alpha, zorder=5))  # fmt: skip
+            ax.plot([axles[i, 0], p[i, 0]], [axles[i, 1], p[i, 1]], color=colour(i), lw=1.0,
+                    alpha=alpha, zorder=5)  # fmt: skip
     for i in range(sc.n):
         ax.plot(
             p[i, 0],
