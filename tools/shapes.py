@@ -24,7 +24,7 @@ import numpy as np
 import yaml
 
 from shoal.bus.geometry import FloatArray
-from shoal.tools.campaign.fields import FieldOptions, make_field
+from shoal.tools.campaign.fields import FieldOptions, make_field, unicycle_for
 from shoal.world.assumptions import check_graph
 from shoal.world.errors import AssumptionError, ScenarioWarning, WorldError
 from shoal.world.loader import CONTROL_DEFAULTS, parse_scenario, scenario_from_dict
@@ -106,11 +106,16 @@ def new_scenario(
     obstacles: int = 0,
     seed: int = 0,
     name: str | None = None,
+    kinematics: str = "single",
 ) -> str:
     """Scenario YAML for a ``shape`` of ``agents`` agents crossing ``length`` m at ``speed``
-    m/s, with ``obstacles`` obstacles drawn inside the assumptions from ``seed``."""
+    m/s, with ``obstacles`` obstacles drawn inside the assumptions from ``seed``;
+    ``kinematics`` "unicycle": unicycles facing along the path (the campaign's
+    :func:`~shoal.tools.campaign.fields.unicycle_for` figures)."""
     if dim not in (2, 3):
         raise ShapeError(f"dim must be 2 or 3, got {dim}")
+    if kinematics == "unicycle" and dim != 2:
+        raise ShapeError(f"unicycles drive in the plane: dim must be 2, got {dim}")
     if not length > 0 or not speed > 0:
         raise ShapeError(f"length and speed must be > 0, got {length} m and {speed} m/s")
     if obstacles < 0:
@@ -132,6 +137,10 @@ def new_scenario(
         "leader": {"waypoints": [[0.0] * dim, [length] + [0.0] * (dim - 1)], "speed": speed},
     }
     data["graph"]["edges"] = [list(e) for e in sparsest_graph(data, slots)]
+    if kinematics == "unicycle":
+        robot = unicycle_for(scenario_from_dict(data))
+        figures = {f: getattr(robot, f) for f in ("lookahead", "max_speed", "max_turn_rate")}
+        data["kinematics"] = {"model": "unicycle", **figures}
     if obstacles:
         data["obstacles"] = _obstacles(data, obstacles, seed, length)
     body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)

@@ -14,7 +14,7 @@ from shoal.tools.cli import main
 from shoal.tools.commands.report import render_summary
 from shoal.tools.procs.launch import free_port
 from shoal.tools.simulator import simulate
-from shoal.world.loader import builtin_names, load_scenario
+from shoal.world.loader import builtin_names, load_scenario, parse_scenario
 from shoal.world.trajectory import Trajectory
 
 KEYS = {
@@ -183,3 +183,14 @@ def test_summary_rows_that_could_look_like_faults_say_what_they_mean() -> None:
     assert rows["convergence"].startswith("0.00 s: the agents started within tolerance")
     a2 = rows["Assumption 2 in the run"].strip()
     assert a2.startswith("54 ticks in which an evading agent and all its neighbours evaded")
+
+
+def test_scenarios_new_makes_unicycles_in_the_plane_only() -> None:
+    made = CliRunner().invoke(main, ["scenarios", "new", "-n", "5", "--kinematics", "unicycle"])
+    assert made.exit_code == 0, made.output
+    s = parse_scenario(made.stdout)
+    assert s.unicycle is not None and s.control.safety_margin >= s.body_reach
+    refused = CliRunner().invoke(
+        main, ["scenarios", "new", "-n", "5", "--dim", "3", "--kinematics", "unicycle"]
+    )
+    assert refused.exit_code == 1 and "drive in the plane" in refused.output

@@ -62,6 +62,11 @@ def show(name: str) -> None:
 @click.option("--speed", type=float, default=1.0, show_default=True, help="Leader, m/s.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Draws the obstacles.")
 @click.option(
+    "--kinematics", type=click.Choice(["single", "unicycle"]), default="single",
+    show_default=True, help="Single integrators (the paper's) or unicycles facing along the "
+    "path, 2-D (docs/scenarios.md, Unicycles).",
+)  # fmt: skip
+@click.option(
     "--out",
     "-o",
     type=click.Path(dir_okay=False, path_type=Path),
