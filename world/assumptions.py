@@ -415,7 +415,7 @@ def _safety(s: Scenario) -> None:
         return
     reach, what = s.agent_radius, "agent_radius"
     if s.unicycle is not None:  # the body is l behind the point, and the point leaves its chord
-        reach, what = s.body_reach, "agent_radius + l + v_max²·dt²/(2l) (a unicycle's reach)"
+        reach, what = s.body_reach, "agent_radius + l + the sagitta of its arc (a unicycle's reach)"
     if c.safety_margin < reach:
         raise ScenarioError(
             "control.safety_margin",
@@ -428,12 +428,12 @@ def _safety(s: Scenario) -> None:
             f"{s.separation} m is less than 2·{what} = {2 * reach:.6g} m: the filter "
             "would let two agents' bodies touch",
         )
-    if s.unicycle is not None and s.speed_limit > s.unicycle.point_speed_cap:
+    if s.unicycle is not None and s.speed_limit > s.unicycle.point_speed_cap(s.dt):
         raise ScenarioError(
             "control.speed_limit",
             f"{s.speed_limit} m/s is faster than the unicycle's point can move under its "
-            f"limits whatever its heading ({s.unicycle.point_speed_cap:.6g} m/s: max_speed, "
-            "lookahead·max_turn_rate and the wheels')",
+            f"limits whatever its heading ({s.unicycle.point_speed_cap(s.dt):.6g} m/s: max_speed, "
+            "lookahead·max_turn_rate and the wheels', and no more than lookahead/dt)",
         )
     step = s.largest_step
     if step <= 0:

@@ -64,8 +64,8 @@ class Summary:
     min_mover_clearance: float | None = None  # m: least agent-to-edge distance to a moving one
     # The safety theorem's own bounds (docs/safety.md): both ≥ 0 with the filter, up to
     # contact_slack. guard_margin: min_clearance − ρ (None without standing obstacles);
-    # separation_margin: min_interagent_distance − the separation; for unicycles each bound
-    # less the points' arc departure (Scenario.arc_departure, twice for a pair). m.
+    # separation_margin: min_interagent_distance − the separation; for unicycles the same
+    # bounds hold for their points' chords, the steps the filter certified. m.
     guard_margin: float | None = None
     separation_margin: float = 0.0
     contact_slack: float = 0.0  # m: an overlap this shallow is rounding, not a collision
@@ -247,7 +247,6 @@ def summarize(
         f_max=peak_speed(scenario.path),
     )
     rho = scenario.control.safety_margin
-    departure = scenario.arc_departure
     # A unicycle's body is judged by the disc about its point's chord that holds it over the
     # tick (body_reach, world/unicycle.py): never a contact missed, possibly one that was not.
     collisions = swept.obstacle_contacts(scenario.body_reach)
@@ -289,10 +288,8 @@ def summarize(
         min_mover_clearance=min_mover_clearance,
         agent_at_fault=at_fault,
         obstacle_at_fault=len(touches) - at_fault,
-        # A unicycle's point may leave its certified straight step by the arc departure
-        # (world/unicycle.py): the theorem's bounds for its chord are that much lower.
-        guard_margin=None if min_clearance is None else min_clearance - (rho - departure),
-        separation_margin=min_distance - (scenario.separation - 2 * departure),
+        guard_margin=None if min_clearance is None else min_clearance - rho,
+        separation_margin=min_distance - scenario.separation,
         contact_slack=swept.slack,
         arrived=came.arrived,
         arrival_time=came.time,

@@ -25,6 +25,7 @@ from shoal.bus.types import (
 )
 from shoal.world.graph import adjacency, communication_graph, diameter
 from shoal.world.movers import Motion
+from shoal.world.unicycle import arc_departure, speed_cap
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,15 +88,19 @@ class Unicycle:
     axle: float | None = None
     max_wheel_speed: float | None = None
 
-    @property
-    def point_speed_cap(self) -> float:
-        """m/s: the fastest the point may move so that every limit holds whatever the heading
-        (|v| ≤ |u|, |ω| ≤ |u|/l, a wheel's rim speed ≤ |v| + |ω|·axle/2)."""
+    def limit(self) -> float:
+        """m/s: the most |(v, l·ω)| may be so that every limit holds whatever the heading
+        (|v| and l·|ω| are its parts; a wheel's rim speed ≤ |v| + |ω|·axle/2)."""
         cap = min(self.max_speed, self.lookahead * self.max_turn_rate)
         if self.wheel_radius is not None and self.axle is not None and self.max_wheel_speed:
             rim = self.wheel_radius * self.max_wheel_speed
             cap = min(cap, rim / (1.0 + self.axle / (2.0 * self.lookahead)))
         return cap
+
+    def point_speed_cap(self, dt: float) -> float:
+        """m/s: the fastest the point may move in ticks of ``dt`` s so that every limit holds
+        whatever the heading (world/unicycle.py, speed_cap)."""
+        return speed_cap(self.limit(), self.lookahead, dt)
 
 
 @dataclass(frozen=True)
@@ -167,17 +172,18 @@ class Scenario:
 
     @property
     def arc_departure(self) -> float:
-        """m: how far a unicycle's point may leave the straight step the safety filter certified,
-        v_max²·dt²/(2l) (world/unicycle.py); 0 for single integrators."""
+        """m: how far a unicycle's point may stray from its chord, the step the safety filter
+        certified, between two ticks: the arc's sagitta at v_max (world/unicycle.py); 0 for
+        single integrators."""
         u = self.unicycle
-        return 0.0 if u is None else self.speed_limit**2 * self.dt**2 / (2.0 * u.lookahead)
+        return 0.0 if u is None else arc_departure(self.speed_limit, u.lookahead, self.dt)
 
     @property
     def body_reach(self) -> float:
         """m: the radius about an agent's point that holds its body over any whole tick, which
         the safety filter's guards and cells must cover: ``agent_radius``, and for a unicycle
-        also l (the body's centre is behind the point) and the point's departure from its
-        straight step, v_max²·dt²/(2l) (world/unicycle.py)."""
+        also l (the body's centre is behind the point) and the sagitta of the point's arc over
+        its chord (world/unicycle.py)."""
         u = self.unicycle
         if u is None:
             return self.agent_radius
@@ -245,7 +251,9 @@ class Scenario:
         if c.speed_limit is not None:
             return c.speed_limit
         largest = self.largest_step / self.dt
-        return largest if self.unicycle is None else min(largest, self.unicycle.point_speed_cap)
+        if self.unicycle is None:
+            return largest
+        return min(largest, self.unicycle.point_speed_cap(self.dt))
 
     def epoch_ticks(self, clock: Clock = Clock.LOCKSTEP) -> int:
         """Ticks per epoch of Algorithm 1 under ``clock``: L_G in lockstep; in realtime

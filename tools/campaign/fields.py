@@ -291,8 +291,9 @@ def _faster(
 
 def unicycle_for(base: Scenario) -> Unicycle:
     """Unicycles for a base of single integrators: l = (ρ − agent_radius)/2, leaving the other
-    half of the margin to the arc departure; |v| ≤ 1.5·β·√dim, so that the sign term's
-    chatter, |(β, …, β)|, never meets the cap; ω ≤ that over l (the point's cap is then |v|'s)."""
+    half of the margin to the arc's sagitta (far more than it needs); |v| ≤ 1.5·β·√dim, so that
+    the sign term's chatter, |(β, …, β)|, never meets the cap; ω ≤ that over l (the point's
+    cap is then |v|'s, a little less for the arc)."""
     c = base.control
     lookahead = (c.safety_margin - base.agent_radius) / 2
     speed = 1.5 * c.beta * math.sqrt(base.dim)
