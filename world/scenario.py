@@ -7,6 +7,7 @@ ids are 1..n; agent 1 is the leader and its offset is zero.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -89,12 +90,14 @@ class Unicycle:
     max_wheel_speed: float | None = None
 
     def limit(self) -> float:
-        """m/s: the most |(v, l·ω)| may be so that every limit holds whatever the heading
-        (|v| and l·|ω| are its parts; a wheel's rim speed ≤ |v| + |ω|·axle/2)."""
+        """m/s: the most |(v, l·ω)| may be so that every limit holds whatever the heading:
+        |v| and l·|ω| are its parts, and a wheel's rim speed |v ± ω·axle/2| = |(v, l·ω)·(1, ±k)|,
+        k = axle/(2l), is at most |(v, l·ω)|·√(1 + k²) (Cauchy–Schwarz; reached when
+        (v, l·ω) ∥ (1, ±k))."""
         cap = min(self.max_speed, self.lookahead * self.max_turn_rate)
         if self.wheel_radius is not None and self.axle is not None and self.max_wheel_speed:
             rim = self.wheel_radius * self.max_wheel_speed
-            cap = min(cap, rim / (1.0 + self.axle / (2.0 * self.lookahead)))
+            cap = min(cap, rim / math.hypot(1.0, self.axle / (2.0 * self.lookahead)))
         return cap
 
     def point_speed_cap(self, dt: float) -> float:

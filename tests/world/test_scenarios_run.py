@@ -141,7 +141,7 @@ DIGESTS = {
     ("obstacles", "paper"): "dd00ce90ae2c1a6a",
     ("passage", "filter"): "a5f9af6504f16f9a",
     ("passage", "paper"): "9abb03727e611003",
-    ("robotarium", "filter"): "e0501d02b555758d",
+    ("robotarium", "filter"): "1e3286966835502c",
     ("sinusoid", "filter"): "0a16c65f361a36b6",
     ("sinusoid", "paper"): "0a16c65f361a36b6",
 }
