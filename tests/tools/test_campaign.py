@@ -29,6 +29,7 @@ from shoal.tools.campaign.fields import (
     needed_contraction,
     unicycle_for,
 )
+from shoal.tools.campaign.hard import hard_field
 from shoal.tools.campaign.report import render, report
 from shoal.tools.campaign.runner import Outcome, judge
 from shoal.tools.cli import main
@@ -362,9 +363,20 @@ def test_kinematics_unicycle_turns_the_fields_into_unicycles_facing_anywhere() -
     assert code == 0 and rep["kinematics"] == "unicycle" and rep["sets"]["inside"]["collided"] == 0
 
 
+def test_hard_fields_as_unicycles_are_all_in_the_plane_and_none_collides() -> None:
+    """--kind hard --kinematics unicycle: every field 2-D (unicycles drive in the plane), each
+    the single integrators' field with its agents made unicycles where that stays admissible."""
+    field = hard_field(5, 2, unicycles=True)
+    assert field.unicycle is not None and field.control.safety_margin >= field.body_reach
+    plain = hard_field(5, 2)
+    assert field.obstacles == plain.obstacles and field.path == plain.path
+    code, rep = _campaign("--kind", "hard", "--fields", "3", "--kinematics", "unicycle",
+                          "--jobs", "1")  # fmt: skip
+    assert code == 0 and set(rep["sets"]) == {"hard/2d"}
+    assert rep["sets"]["hard/2d"]["fields"] == 3 and rep["sets"]["hard/2d"]["collided"] == 0
+
+
 def test_unicycles_are_refused_where_they_cannot_go() -> None:
-    hard = CliRunner().invoke(main, ["campaign", "--kind", "hard", "--kinematics", "unicycle"])
-    assert hard.exit_code == 2 and "not with --kind hard" in hard.output
     grid = CliRunner().invoke(main, ["scenarios", "new", "-n", "6", "--dim", "3"])
     assert grid.exit_code == 0, grid.output
     with pytest.raises(FieldError, match="drive in the plane"):

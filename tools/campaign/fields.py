@@ -307,8 +307,12 @@ def _kinematics(base: Scenario, seed: int, opts: FieldOptions) -> dict[str, Any]
         robot = None
     elif opts.kinematics == "unicycle" and robot is None:
         robot = unicycle_for(base)
-    if robot is None:
-        return {}
+    return {} if robot is None else unicycle_fields(base, seed, robot)
+
+
+def unicycle_fields(base: Scenario, seed: int, robot: Unicycle) -> dict[str, Any]:
+    """The ``kinematics`` and ``agents`` entries that make ``base``'s agents ``robot``s, each
+    facing a direction drawn for field ``seed``."""
     if base.dim != 2:
         raise FieldError(f"unicycles drive in the plane: {base.name} has dim {base.dim}")
     given = {f.name: getattr(robot, f.name) for f in dataclasses.fields(robot)}

@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 
 from shoal.bus.path import path_position
-from shoal.tools.campaign.fields import FieldError
+from shoal.tools.campaign.fields import FieldError, unicycle_fields, unicycle_for
 from shoal.tools.shapes import SHAPES, offsets, sparsest_graph
 from shoal.world.errors import ScenarioWarning, WorldError
 from shoal.world.loader import parse_scenario, scenario_from_dict
@@ -51,15 +51,19 @@ RHO = 0.2  # m: the safety margin ρ of every hard field (the loader's default)
 _TAG = 0x4A8D  # keeps this generator's random streams apart from fields.py's
 
 
-def hard_field(seed: int, dim: int = 2, *, boundary_layer: float = 0.0) -> Scenario:
+def hard_field(
+    seed: int, dim: int = 2, *, boundary_layer: float = 0.0, unicycles: bool = False
+) -> Scenario:
     """Hard field number ``seed`` in ``dim`` dimensions (2 or 3). ``boundary_layer`` K > 0:
     the same field with the optional boundary layer φ = K·β·dt (sat(e/φ) in place of the
-    paper's sign(e)); the field drawn does not depend on it."""
+    paper's sign(e)); the field drawn does not depend on it. ``unicycles`` (2-D only): every
+    agent a unicycle (fields.py's ``unicycle_for``, headings drawn per field); the field is the
+    one drawn for single integrators unless its skeleton does not admit them."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim}")
     for sub in range(SKELETONS):
         rng = np.random.default_rng([seed, dim, sub, _TAG])
-        data = _skeleton(rng, seed, dim)
+        data = _skeleton(rng, seed, dim, unicycles)
         if data is None:
             continue
         data["obstacles"] = _obstacles(data, rng)
@@ -85,7 +89,9 @@ def _round(x: float) -> float:
     return float(round(x, 4))
 
 
-def _skeleton(rng: np.random.Generator, seed: int, dim: int) -> dict[str, Any] | None:
+def _skeleton(
+    rng: np.random.Generator, seed: int, dim: int, unicycles: bool = False
+) -> dict[str, Any] | None:
     """Everything but the obstacles, or None if the loader refuses it."""
     n = int(rng.integers(4, 11))
     shape = str(rng.choice(SHAPES))
@@ -120,6 +126,9 @@ def _skeleton(rng: np.random.Generator, seed: int, dim: int) -> dict[str, Any] |
     }
     try:
         data["graph"]["edges"] = [list(e) for e in sparsest_graph(data, slots)]
+        if unicycles:
+            bare = scenario_from_dict(data)
+            data.update(unicycle_fields(bare, seed, unicycle_for(bare)))
         with warnings.catch_warnings():
             warnings.simplefilter("error", ScenarioWarning)
             scenario_from_dict(data)

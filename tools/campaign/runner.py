@@ -177,7 +177,10 @@ def run_task(task: Task) -> Outcome:
     try:
         if task.mode in HARD_MODES:
             k = task.options.boundary_layer
-            field = hard_field(task.seed, HARD_MODES[task.mode], boundary_layer=k)
+            unicycles = task.options.kinematics == "unicycle"
+            field = hard_field(
+                task.seed, HARD_MODES[task.mode], boundary_layer=k, unicycles=unicycles
+            )
         else:
             field = make_field(_base(task.base, task.base_name), task.seed, task.mode, task.options)
     except WorldError as exc:
@@ -206,9 +209,11 @@ def tasks(
     breach with the same seeds; each once per ``safety`` mode ("filter", "paper"): the same
     field, run with and without the safety filter. ``hard``: instead ``fields`` hard fields
     (tools/campaign/hard.py) with the filter, half in 2-D (one more if odd), half in 3-D, each
-    half with seeds seed, seed+1, …"""
+    half with seeds seed, seed+1, … (all in 2-D for unicycles, which drive in the plane)."""
     if hard:
         halves = (fields - fields // 2, fields // 2)
+        if options.kinematics == "unicycle":
+            halves = (fields, 0)
         return [
             Task(base.source, base.name, seed + k, mode, options)
             for mode, half in zip(HARD_MODES, halves, strict=True)

@@ -118,8 +118,8 @@ def _count(text: str) -> tuple[int, int]:
     "--kinematics",
     type=click.Choice(["single", "unicycle"]),
     help="Make every agent a single integrator or a unicycle (a base of single integrators "
-    "gets unicycles with l = (ρ − agent_radius)/2, |v| ≤ 1.5·β·√dim; headings drawn per field) "
-    "[default: the base's].",
+    "gets unicycles with l = (ρ − agent_radius)/2, |v| ≤ 1.5·β·√dim; headings drawn per field; "
+    "with --kind hard every field is drawn in 2-D) [default: the base's].",
 )
 @click.option(
     "--boundary-layer", default=0.0, show_default=True, type=click.FloatRange(min=0.0),
@@ -242,8 +242,6 @@ def campaign(
             count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
         )
     hard = kind == "hard"
-    if hard and kinematics == "unicycle":
-        raise click.UsageError("--kinematics unicycle: not with --kind hard yet (issue 31)")
     if hard and (swarm is not None or people is not None or safety != "filter"):
         raise click.UsageError(
             "--kind hard draws fields for the reference simulator with the safety filter: "
