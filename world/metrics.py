@@ -53,6 +53,9 @@ class Summary:
     assumption2_violations: int
     safety: str = "filter"
     filter_activity: float = 0.0  # fraction of agent-ticks the safety filter changed
+    # Fraction of agent-ticks moving at the speed limit (for unicycles, the point's cap: there
+    # the limits cut in and the point does not follow the law exactly; Theorem 1 assumes not).
+    at_speed_limit: float = 0.0
     stalls: int = 0  # times an agent was held by the filter for more than STALL_TIME
     longest_stall: float = 0.0  # s
     leader_shortfall: float = 0.0  # m: the leader's final distance from where its path ends
@@ -212,6 +215,14 @@ def assumption2_violations(scenario: Scenario, omega: np.ndarray[Any, Any]) -> i
     return count
 
 
+def at_speed_limit(scenario: Scenario, traj: Trajectory) -> float:
+    """Fraction of agent-ticks whose velocity is at the speed limit (within 1e-9 of it)."""
+    if not traj.velocities.size:
+        return 0.0
+    speeds = np.linalg.norm(traj.velocities, axis=-1)
+    return float(np.mean(speeds >= scenario.speed_limit * (1.0 - 1e-9)))
+
+
 def summarize(
     scenario: Scenario,
     traj: Trajectory,
@@ -282,6 +293,7 @@ def summarize(
         assumption2_violations=assumption2_violations(scenario, traj.omega),
         safety=str(scenario.control.safety),
         filter_activity=float(traj.filtered.mean()) if traj.filtered.size else 0.0,
+        at_speed_limit=at_speed_limit(scenario, traj),
         stalls=sum(h > STALL_TIME for h in held),
         longest_stall=max(held, default=0.0),
         leader_shortfall=norm(traj.positions[-1, 0] - goal),

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from shoal.bus.messages import Sensing
 from shoal.bus.safety import safe_velocity
+from shoal.tools.commands.report import render_summary
 from shoal.tools.simulator import simulate
 from shoal.world.errors import ScenarioError
 from shoal.world.loader import load_scenario, parse_scenario
@@ -380,3 +381,17 @@ def test_the_robotarium_run_keeps_its_bodies_apart_and_off_the_obstacles() -> No
             d = np.linalg.norm(c[:, None] - c[None], axis=-1) + np.eye(s.n) * 1e9
             least_pair = min(least_pair, float(d.min()) - 2 * s.agent_radius)
     assert least_obstacle > 0 and least_pair > 0
+
+
+def test_the_summary_says_how_often_the_point_is_held_to_its_cap() -> None:
+    """Where the point moves at its cap the limits cut in and it does not follow the law
+    exactly: the summary counts those agent-ticks, and says what they mean."""
+    s = load_scenario("robotarium")
+    traj = simulate(s)
+    summary = summarize(s, traj)
+    speeds = np.linalg.norm(traj.velocities, axis=-1)
+    expected = float(np.mean(speeds >= s.speed_limit * (1 - 1e-9)))
+    assert summary.at_speed_limit == expected and 0.0 < expected < 0.5
+    assert "speed limit" in render_summary(summary.as_dict())
+    plain = load_scenario("default")
+    assert summarize(plain, simulate(plain)).at_speed_limit == 0.0

@@ -64,6 +64,7 @@ def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
         "a2_broken_in_run": sum(o.assumption2_violations > 0 for o in ran),
         "omega_episodes": sum(o.omega_episodes for o in ran),
         "filter_activity": float(np.mean([o.filter_activity for o in ran])) if ran else 0.0,
+        "at_speed_limit": float(np.mean([o.at_speed_limit for o in ran])) if ran else 0.0,
         "stalled_fields": sum(o.stalls > 0 for o in ran),
         "stalls": sum(o.stalls for o in ran),
         "longest_stall": max((o.longest_stall for o in ran), default=0.0),
@@ -222,7 +223,13 @@ def render(rep: dict[str, Any]) -> str:
     if any(mode in HARD_MODES for mode in rep["sets"]):
         notes += "; hard/2d, hard/3d: the adversarial generator's fields (--kind hard)"
     if rep.get("kinematics") == "unicycle":
-        notes += "; every agent a unicycle (contacts: the body's reach about its point's chord)"
+        capped = ", ".join(
+            f"{mode} {100 * s.get('at_speed_limit', 0.0):.2f} %" for mode, s in rep["sets"].items()
+        )
+        notes += (
+            "; every agent a unicycle (contacts: the body's reach about its point's chord; the "
+            f"point at its speed cap, where the law is cut, in {capped} of agent-ticks)"
+        )
     if rep.get("boundary_layer"):
         notes += (
             f"; every field with the boundary layer φ = {rep['boundary_layer']:g}·β·dt, "

@@ -49,7 +49,7 @@ AS_SUMMARIZED = (
     "tolerance", "sigma", "omega_episodes", "assumption2_violations", "safety",
     "filter_activity", "stalls", "longest_stall", "separation_margin", "arrived",
     "arrival_time", "not_arrived", "leader_shortfall", "slot_distance", "livelocks",
-    "longest_livelock",
+    "longest_livelock", "at_speed_limit",
 )  # fmt: skip
 
 
@@ -79,6 +79,7 @@ class Outcome:
     source: str = ""
     safety: str = "filter"
     filter_activity: float = 0.0
+    at_speed_limit: float = 0.0  # fraction of agent-ticks at the speed limit
     stalls: int = 0
     longest_stall: float = 0.0
     leader_reached: bool = True

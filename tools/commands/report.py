@@ -68,6 +68,14 @@ def render_summary(summary: dict[str, Any]) -> str:
         )
     else:
         rows.append(("safety filter", "off (safety: paper, Algorithm 2 alone)"))
+    if summary.get("at_speed_limit"):
+        rows.append(
+            (
+                "speed limit",
+                f"reached in {100 * summary['at_speed_limit']:.2f} % of agent-ticks (there the "
+                "point moves slower than the law asks; Theorem 1's bound assumes it never does)",
+            )
+        )
     if summary.get("clock") is not None:
         rows.append(
             (
