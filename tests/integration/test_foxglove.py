@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 from collections.abc import Iterator
 from dataclasses import replace
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -25,10 +27,9 @@ from conftest import json_of, run_cli
 from jsonschema import Draft202012Validator
 from jsonschema.validators import validator_for
 from mcap.reader import make_reader
+from runlogs import GONE_AT, TINY, TINY_3D, TINY_PEOPLE, raw_log, reference_log
 
-from shoal.bus import codec
-from shoal.bus.keys import Keys
-from shoal.bus.messages import Event, TickRecord
+from shoal.bus.messages import Event
 from shoal.tools.cli import main
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.foxglove.msgs import arrow, dashes, vec3s
@@ -43,7 +44,6 @@ from shoal.tools.foxglove.views import (
     TOPICS,
     TRAILS,
     WORLD,
-    RunLog,
     View,
     ViewOptions,
     every,
@@ -51,54 +51,12 @@ from shoal.tools.foxglove.views import (
     views,
 )
 from shoal.tools.log.writer import McapLog
-from shoal.tools.simulator import run as simulate_ticks
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario, parse_scenario
 from shoal.world.metrics import summarize
 
 ROOT = Path(__file__).resolve().parents[2]
 VENDORED = ROOT / "tools" / "foxglove" / "schemas"
-T0 = 1_790_000_000_123_456_789  # ns: a log time in 2026
-LOG_STEP = 7_000_000  # ns between tick records: log time is not simulated time (dt = 20 ms)
-
-# Four agents, 200 ticks: follower 2 meets the obstacle and evades (Ω) from tick 22 to 159;
-# the formation is scaled and turned at 3 s (σ 1 → 1.5, θ 0.3).
-TINY = """
-name: tiny
-dim: 2
-seed: 1
-dt: 0.02
-duration: 4.0
-agent_radius: 0.05
-tolerance_factor: 10
-graph:
-  directed: false
-  edges: [[1, 2], [1, 3], [2, 3], [2, 4], [3, 4]]
-agents:
-  - offset: [0, 0]
-  - offset: [-2, 1.5]
-  - offset: [-2, -1.5]
-  - offset: [-4, 0]
-initial_noise: 0.3
-leader:
-  waypoints: [[0, 0], [10, 0]]
-  speed: 1.0
-obstacles:
-  - {centre: [1.5, 1.5], radius: 0.5}
-reshape:
-  - {at: 3.0, scale: 1.5, rotate: 0.3}
-"""
-TINY_3D = (
-    TINY.replace("name: tiny", "name: tiny3d")
-    .replace("dim: 2", "dim: 3")
-    .replace("[0, 0]", "[0, 0, 0]")
-    .replace("[-2, 1.5]", "[-2, 1.5, 0.5]")
-    .replace("[-2, -1.5]", "[-2, -1.5, 0]")
-    .replace("[-4, 0]", "[-4, 0, -0.5]")
-    .replace("[10, 0]", "[10, 0, 0]")
-    .replace("[1.5, 1.5]", "[1.5, 1.5, 0.5]")
-)
-GONE_AT = 120  # agent 4's process "dies" here in the reference log with a departure
 
 
 @pytest.fixture(scope="module")
@@ -132,43 +90,6 @@ class Validators:
             cls.check_schema(schema)
             self.cache[name] = cls(schema)
         return self.cache[name]
-
-
-def reference_log(text: str, *, gone: int | None = None) -> RunLog:
-    """The reference simulator's ticks as a run log. With ``gone``, agent 4 is held still from
-    tick ``gone`` on, with the world's departure event, as the world does for a dead process."""
-    scenario = parse_scenario(text)
-    ticks: list[tuple[int, TickRecord]] = []
-    held: tuple[float, ...] | None = None
-    for t in simulate_ticks(scenario):
-        alive = tuple(
-            not (gone is not None and t.tick >= gone and i == 3) for i in range(scenario.n)
-        )
-        positions = [tuple(p) for p in t.positions.tolist()]
-        velocities = [tuple(v) for v in t.velocities.tolist()]
-        if not alive[3]:
-            held = held or positions[3]
-            positions[3], velocities[3] = held, (0.0,) * scenario.dim
-        record = TickRecord(
-            tick=t.tick,
-            positions=tuple(positions),
-            velocities=tuple(velocities),
-            omega=tuple(s.omega and alive[i] for i, s in enumerate(t.states)),
-            bid=tuple(s.bid for s in t.states),
-            sigma=tuple(s.sigma for s in t.states),
-            theta=tuple(s.theta for s in t.states),
-            alive=alive,
-            filtered=t.filtered,
-            mover_centres=t.movers.centres,
-            mover_velocities=t.movers.velocities,
-        )
-        ticks.append((T0 + (t.tick + 1) * LOG_STEP, record))
-    finished = Event(scenario.steps, 2, 0, "run finished; 0 bad messages dropped")
-    events = [(ticks[-1][0] + 1, finished)]
-    if gone is not None:
-        text = f"agent 4 gone at tick {gone}; held still from now on"
-        events.insert(0, (T0 + gone * LOG_STEP + 1, Event(gone, 3, 4, text)))
-    return RunLog(scenario, T0, ticks, events)
 
 
 def by_topic(msgs: list[View], topic: str) -> list[View]:
@@ -229,15 +150,6 @@ def test_every_view_validates_against_foxglove_schemas(
     for v in msgs:
         validators(TOPICS[v.topic]).validate(v.message)
         json.dumps(v.message, allow_nan=False)
-
-
-# Two people walk across TINY's path: a person (social force) and a blind walker.
-TINY_PEOPLE = TINY.replace("name: tiny", "name: tinypeople").replace(
-    "  - {centre: [1.5, 1.5], radius: 0.5}\n",
-    "  - {centre: [1.5, 1.5], radius: 0.5}\n"
-    "  - {centre: [4, 3], radius: 0.3, moves: {kind: person, goals: [[4, -3]], speed: 1.0}}\n"
-    "  - {centre: [6, -3], radius: 0.3, moves: {kind: route, waypoints: [[6, 3]], speed: 1.2}}\n",
-)
 
 
 def test_moving_obstacles_are_drawn_where_they_are_with_trails_and_validate(
@@ -424,6 +336,38 @@ def test_agents_carry_their_state_and_the_slots_their_error() -> None:
         assert len(crosses["points"]) == 4 * 3 and len(errors["points"]) == 2 * 3
 
 
+def test_unicycles_are_drawn_with_the_body_behind_the_point_and_face_their_heading(
+    npm_schemas: Path,
+) -> None:
+    """A unicycle's frame turns with its heading; its body is drawn about the axle, l behind
+    the point the laws move, with an arrow along the heading; every view still validates."""
+    text = resources.files("shoal.world.scenarios").joinpath("robotarium.yaml").read_text()
+    run = reference_log(text.replace("duration: 75.0", "duration: 10.0"))
+    s, ell = run.scenario, run.scenario.lookahead or 0.0
+    msgs = list(views(run, ViewOptions(scene_hz=1.0, plot_hz=1.0)))
+    validators = Validators(npm_schemas)
+    for v in msgs:
+        validators(TOPICS[v.topic]).validate(v.message)
+    records = dict(run.ticks)
+    frames, agents = by_topic(msgs, FRAMES)[-1], by_topic(msgs, AGENTS)[-1]
+    r = records[frames.ns]
+    assert agents.ns == frames.ns and len(r.headings) == s.n
+    for i, theta in enumerate(r.headings):
+        e = np.array([math.cos(theta), math.sin(theta), 0.0])
+        q = frames.message["transforms"][i]["rotation"]
+        assert _rotate(q, np.array([1.0, 0.0, 0.0])) == pytest.approx(e, abs=1e-9)
+        agent = agents.message["entities"][i]
+        body, dot = agent["spheres"]
+        centre = np.array([body["pose"]["position"][k] for k in "xyz"])
+        assert centre == pytest.approx(np.array([*r.positions[i], 0.0]) - ell * e, abs=1e-4)
+        assert body["size"]["x"] == 2 * s.agent_radius and dot["size"]["x"] < body["size"]["x"]
+        heading = agent["arrows"][-1]
+        along = _rotate(heading["pose"]["orientation"], np.array([1.0, 0.0, 0.0]))
+        assert along == pytest.approx(e, abs=1e-4)
+        meta = {m["key"]: m["value"] for m in agent["metadata"]}
+        assert float(meta["heading_rad"]) == pytest.approx(theta, rel=1e-5)
+
+
 def test_arrows_point_along_their_vector() -> None:
     for vector in [(1.0, 0.0), (0.0, 2.0), (-3.0, 0.0), (1.0, -1.0, 0.5), (0.0, 0.0, -1.0)]:
         a = arrow({"x": 0.0, "y": 0.0, "z": 0.0}, vector, (1, 1, 1, 1), 0.05)
@@ -451,28 +395,6 @@ def test_dashes_and_points() -> None:
 
 
 # -- export: MCAP in, MCAP out ----------------------------------------------------------------
-
-
-def raw_log(path: Path, run: RunLog, run_id: str = "fox-1") -> None:
-    """A raw log as the logger writes it (its own writer, keys and payloads), from ``run``."""
-    keys = Keys(run_id)
-    s = run.scenario
-    summary = {**summarize(s, simulate(s)).as_dict(), "clock": "lockstep"}
-    with McapLog(path, run=run_id) as log:
-        doc = {"name": s.name, "yaml": s.source}
-        log.add(keys.scenario, codec.encode_document("scenario", doc), run.start_ns)
-        log.attach_scenario(s.name, s.source, run.start_ns)
-        events = list(run.events)
-        for ns, r in run.ticks:
-            log.add(keys.sensing(1), b"\x80", ns - 2)  # agents' traffic: never read by export
-            log.add(keys.tick, codec.encode_tick(r), ns)
-            while events and events[0][0] <= ns:
-                e_ns, e = events.pop(0)
-                log.add(keys.event, codec.encode_event(e), e_ns)
-        for e_ns, e in events:
-            log.add(keys.event, codec.encode_event(e), e_ns)
-        log.add(keys.summary, codec.encode_document("summary", summary), run.ticks[-1][0] + 5)
-        log.add_summary(summary)
 
 
 def check_views_file(path: Path, validators: Validators) -> dict[str, int]:

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from conftest import PYTHON, ROOT, run_cli, stop
 from mcap.reader import make_reader
-from test_foxglove import GONE_AT, LOG_STEP, TINY, TINY_PEOPLE, raw_log, reference_log
+from runlogs import GONE_AT, LOG_STEP, TINY, TINY_PEOPLE, raw_log, reference_log
 
 from shoal.bus import codec
 from shoal.tools.foxglove import stream as stream_module

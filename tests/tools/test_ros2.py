@@ -10,21 +10,25 @@ evading, agent 4's process gone from tick 120 on.
 from __future__ import annotations
 
 import json
+import math
 import sys
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
-from test_foxglove import GONE_AT, TINY_3D, TINY_PEOPLE, raw_log, reference_log
+from runlogs import GONE_AT, TINY_3D, TINY_PEOPLE, raw_log, reference_log
 
 from shoal.tools.cli import main
 from shoal.tools.foxglove.views import RunLog
 from shoal.world.metrics import clearances, formation_errors, pair_distances
 from shoal.world.trajectory import Trajectory
+from shoal.world.unicycle import body_centres, drive, wheel_command
 
 STEP_NS = 20_000_000  # dt = 0.02 s in the TINY scenarios
 TICKS = 200
@@ -253,6 +257,39 @@ def test_a_3d_run_has_sphere_obstacles_and_z(tmp_path: Path) -> None:
     )
     assert (obstacle.scale.x, obstacle.scale.y, obstacle.scale.z) == (1.0, 1.0, 1.0)
     assert bag.report["ticks"] == TICKS
+
+
+def test_a_unicycle_is_a_robot_at_its_axle_facing_its_heading_driven_by_v_and_omega(
+    tmp_path: Path,
+) -> None:
+    """For unicycles the bag speaks as a ROS robot would: poses and frames at the axle turned
+    by the heading, and cmd_vel the (v, ω) the world held, in the robot's frame; driving each
+    record's bodies with those commands for a tick reaches the next record."""
+    text = resources.files("shoal.world.scenarios").joinpath("robotarium.yaml").read_text()
+    bag = export_bag(tmp_path, text.replace("duration: 75.0", "duration: 3.3"))
+    s = bag.run.scenario
+    ell = s.lookahead or 0.0
+    poses = [m for _ns, m in bag.messages["/shoal/poses"]]
+    commands = [[m.twist for _ns, m in bag.messages[f"/agent_{i}/cmd_vel"]] for i in (1, 2, 3)]
+    assert len(poses) == len(bag.records) == 100
+    for k, (r, pose_array) in enumerate(zip(bag.records, poses, strict=True)):
+        points, headings = np.array(r.positions), np.array(r.headings)
+        axles = body_centres(points, headings, ell)
+        assert [(p.position.x, p.position.y) for p in pose_array.poses] == [
+            tuple(c) for c in axles.tolist()
+        ]
+        for p, theta in zip(pose_array.poses, headings, strict=True):
+            assert (p.orientation.z, p.orientation.w) == (
+                math.sin(theta / 2), math.cos(theta / 2)
+            )  # fmt: skip
+        v, w = wheel_command(np.array(r.velocities), headings, ell, s.dt)
+        for i in range(3):
+            twist = commands[i][k]
+            assert (twist.linear.x, twist.angular.z) == (v[i], w[i])
+            assert (twist.linear.y, twist.angular.x, twist.angular.y) == (0.0, 0.0, 0.0)
+        if k + 1 < len(bag.records):
+            after, _ = drive(points, headings, v, w, ell, s.dt)
+            assert after == pytest.approx(np.array(bag.records[k + 1].positions), abs=1e-12)
 
 
 # -- refusals -----------------------------------------------------------------------------------

@@ -197,9 +197,15 @@ def scene_update(entities: list[Json]) -> Json:
     return {"deletions": [], "entities": entities}
 
 
-def frame_transforms(ns: int, frames: Iterable[tuple[str, Json]], parent: str = "world") -> Json:
-    """foxglove.FrameTransforms: each child frame at a position, not rotated (the agents are
-    points: single integrators have no attitude)."""
+def frame_transforms(
+    ns: int,
+    frames: Iterable[tuple[str, Json]],
+    parent: str = "world",
+    rotations: Sequence[Json] = (),
+) -> Json:
+    """foxglove.FrameTransforms: each child frame at a position, turned by its entry of
+    ``rotations`` (a unicycle's heading, :func:`yaw`) or, where there is none, not at all
+    (single integrators are points, with no attitude)."""
     return {
         "transforms": [
             {
@@ -207,11 +213,16 @@ def frame_transforms(ns: int, frames: Iterable[tuple[str, Json]], parent: str = 
                 "parent_frame_id": parent,
                 "child_frame_id": child,
                 "translation": p,
-                "rotation": IDENTITY,
+                "rotation": rotations[k] if k < len(rotations) else IDENTITY,
             }
-            for child, p in frames
+            for k, (child, p) in enumerate(frames)
         ]
     }
+
+
+def yaw(theta: float) -> Json:
+    """The unit quaternion of a turn by ``theta`` rad about z (a unicycle's heading)."""
+    return {"x": 0.0, "y": 0.0, "z": math.sin(theta / 2), "w": math.cos(theta / 2)}
 
 
 def log(ns: int, level: int, message: str, name: str) -> Json:

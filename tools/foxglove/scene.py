@@ -39,6 +39,7 @@ from shoal.tools.foxglove.msgs import (
     text,
     vec3,
     vec3s,
+    yaw,
 )
 from shoal.world.scenario import Scenario
 
@@ -127,9 +128,13 @@ class Layers:
             ]
         )  # fmt: skip
 
-    def frames(self, ns: int, where: list[Json]) -> Json:
-        """Frame ``agent_<i>`` at agent i's position (``where``: vec3s of a record's positions)."""
-        return frame_transforms(ns, ((frame(i + 1), p) for i, p in enumerate(where)))
+    def frames(self, ns: int, where: list[Json], headings: Sequence[float] = ()) -> Json:
+        """Frame ``agent_<i>`` at agent i's position (``where``: vec3s of a record's positions),
+        its x axis along the unicycle's ``headings`` (rad) where the record has them."""
+        turns = [yaw(h) for h in headings]
+        return frame_transforms(
+            ns, ((frame(i + 1), p) for i, p in enumerate(where)), rotations=turns
+        )
 
     def agents(
         self, ns: int, r: TickRecord, where: list[Json], velocities: Sequence[Sequence[float]]
@@ -144,24 +149,41 @@ class Layers:
             label = f"{i + 1}" + (" leader" if i == 0 else "")
             label += " Ω" if r.omega[i] else ""
             label += " gone" if not r.alive[i] else ""
-            body = sphere(p, 2 * s.agent_radius, rgba)
             tag = text({**p, "z": p["z"] + 2 * s.agent_radius}, label, rgba)
             velocity = arrow(p, velocities[i], rgba, s.agent_radius)
+            arrows = [velocity] if velocity is not None else []
             meta = {
                 "omega": str(r.omega[i]).lower(),
                 "alive": str(r.alive[i]).lower(),
                 "sigma": f"{r.sigma[i]:.6g}",
                 "theta_rad": f"{r.theta[i]:.6g}",
             }
+            if s.lookahead is not None and i < len(r.headings):
+                spheres = self._unicycle(p, r.headings[i], rgba, arrows)
+                meta["heading_rad"] = f"{r.headings[i]:.6g}"
+            else:
+                spheres = [sphere(p, 2 * s.agent_radius, rgba)]
             entities.append(
-                entity(
-                    ns, f"agent/{i + 1}", metadata=meta, spheres=[body], texts=[tag],
-                    arrows=[velocity] if velocity is not None else [],
-                )
+                entity(ns, f"agent/{i + 1}", metadata=meta, spheres=spheres, texts=[tag],
+                       arrows=arrows)
             )  # fmt: skip
         entities.append(entity(ns, "slots", lines=self._slots(r, where)))
         entities += self._movers(ns, r)
         return scene_update(entities)
+
+    def _unicycle(self, point: Json, heading: float, rgba: RGBA, arrows: list[Json]) -> list[Json]:
+        """A unicycle: its body about the axle l behind ``point``, a small dot at the point the
+        laws move, and (added to ``arrows``) its heading from the axle to the body's rim."""
+        s = self.scenario
+        ell = s.lookahead or 0.0
+        e = (math.cos(heading), math.sin(heading))
+        axle = {**point, "x": point["x"] - ell * e[0], "y": point["y"] - ell * e[1]}
+        ahead = arrow(axle, [(ell + s.agent_radius) * c for c in e], rgba, s.agent_radius / 4)
+        if ahead is not None:
+            arrows.append(ahead)
+        dot = (*rgba[:3], 1.0)
+        return [sphere(axle, 2 * s.agent_radius, (*rgba[:3], 0.6 * rgba[3])),
+                sphere(point, s.agent_radius / 2, dot)]  # fmt: skip
 
     def _movers(self, ns: int, r: TickRecord) -> list[Json]:
         """Each moving obstacle where it is at ``r``: its body (a pillar in 2-D), its guard

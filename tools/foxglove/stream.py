@@ -111,7 +111,7 @@ class Stream:
             return []
         ns, r = at.ns, at.record
         return [
-            View(FRAMES, ns, self.layers.frames(ns, at.where)),
+            View(FRAMES, ns, self.layers.frames(ns, at.where, r.headings)),
             View(AGENTS, ns, self.layers.agents(ns, r, at.where, self._velocities(r))),
             View(GRAPH, ns, self.layers.graph(ns, r, at.where)),
         ]

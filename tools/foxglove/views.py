@@ -165,7 +165,7 @@ class _Scene:
                 h.append(p)
                 del h[: -self.keep]
         if draw:
-            yield View(FRAMES, ns, self.layers.frames(ns, where))
+            yield View(FRAMES, ns, self.layers.frames(ns, where, r.headings))
             if first:  # locked to the agents' frames: drawn once, once the frames exist
                 yield View(SENSING, ns, self.layers.sensing(ns))
             yield View(AGENTS, ns, self.layers.agents(ns, r, where, self._velocities(r)))

@@ -4,12 +4,16 @@ Every message of tick k is stamped with the tick's simulated time, k·dt in ns f
 the run: the header stamps and the bag's log times agree on every topic. Positions and commands
 are the log's float64 values, exactly; a 2-D run lies in the plane z = 0. The frames are
 Foxglove's (tools/foxglove/scene.py): ``world``, and ``agent_<i>`` at agent i, not rotated (the
-agents are points: single integrators have no attitude). Topics (docs/ros2.md):
+agents are points: single integrators have no attitude). A unicycle is a ROS robot instead:
+``agent_<i>`` is its body frame, at the axle and turned by its heading (the point the laws move
+is l ahead on its x axis). Topics (docs/ros2.md):
 
-- ``/shoal/poses`` geometry_msgs/msg/PoseArray in ``world``: every agent in id order;
+- ``/shoal/poses`` geometry_msgs/msg/PoseArray in ``world``: every agent in id order (a
+  unicycle: its axle and heading);
 - ``/tf`` tf2_msgs/msg/TFMessage: ``world`` → ``agent_<i>`` for every agent;
 - ``/agent_<i>/cmd_vel`` geometry_msgs/msg/TwistStamped in ``agent_<i>``: the velocity the world
-  applied to agent i during the tick (m/s, world axes: the agent's frame is not rotated);
+  applied to agent i during the tick (m/s, world axes: the agent's frame is not rotated); a
+  unicycle's (v, ω) held over the tick, as linear.x (m/s) and angular.z (rad/s) in its frame;
 - ``/shoal/obstacles`` visualization_msgs/msg/MarkerArray: one marker per obstacle (standing and
   moving, ns ``obstacles``, id = its 0-based index in the scenario) at its centre;
 - ``/shoal/graph`` visualization_msgs/msg/MarkerArray: the sensing graph's edges, as Foxglove's
@@ -34,6 +38,7 @@ from shoal.tools.foxglove.scene import EDGE, MOVER, OBSTACLE, PILLAR_M, Layers, 
 from shoal.tools.foxglove.views import BLOCK, RunLog
 from shoal.tools.ros2.metrics import Metrics, metrics
 from shoal.world.scenario import Scenario
+from shoal.world.unicycle import body_centres, wheel_command
 
 # The types, by their ROS names (rosbags names a class after its full type name).
 Duration = ros.builtin_interfaces__msg__Duration
@@ -116,14 +121,17 @@ def _tick(
     s: Scenario, layers: Layers, ns: int, r: TickRecord, m: Metrics, j: int
 ) -> Iterator[Message]:
     world = header(ns, WORLD)
-    points = [_point(p) for p in r.positions]
-    yield Message(POSES, ns, PoseArray(header=world, poses=[_pose(p) for p in points]))
-    yield Message(TF, ns, TFMessage(transforms=_transforms(world, points)))
-    for i, v in enumerate(r.velocities):
-        twist = Twist(linear=_vector(v), angular=Vector3(x=0.0, y=0.0, z=0.0))
-        yield Message(
-            cmd_vel(i + 1), ns, TwistStamped(header=header(ns, frame(i + 1)), twist=twist)
-        )
+    if s.lookahead is not None and len(r.headings) == s.n:
+        yield from _unicycles(s, ns, r, world, s.lookahead)
+    else:
+        points = [_point(p) for p in r.positions]
+        yield Message(POSES, ns, PoseArray(header=world, poses=[_pose(p) for p in points]))
+        yield Message(TF, ns, TFMessage(transforms=_transforms(world, points)))
+        for i, v in enumerate(r.velocities):
+            twist = Twist(linear=_vector(v), angular=Vector3(x=0.0, y=0.0, z=0.0))
+            yield Message(
+                cmd_vel(i + 1), ns, TwistStamped(header=header(ns, frame(i + 1)), twist=twist)
+            )
     if s.obstacles:
         yield Message(OBSTACLES, ns, marker_array(_obstacles(s, world, r)))
     if s.edges:
@@ -145,19 +153,47 @@ def _vector(v: Sequence[float]) -> Vector3:
     return Vector3(x=v[0], y=v[1], z=v[2] if len(v) > 2 else 0.0)
 
 
-def _pose(p: Point) -> Pose:
-    return Pose(position=p, orientation=IDENTITY)
+def _pose(p: Point, orientation: Quaternion = IDENTITY) -> Pose:
+    return Pose(position=p, orientation=orientation)
 
 
-def _transforms(world: Header, points: list[Point]) -> list[TransformStamped]:
+def _yaw(theta: float) -> Quaternion:
+    return Quaternion(x=0.0, y=0.0, z=math.sin(theta / 2), w=math.cos(theta / 2))
+
+
+def _transforms(
+    world: Header, points: list[Point], turns: Sequence[Quaternion] = ()
+) -> list[TransformStamped]:
     return [
         TransformStamped(
             header=world,
             child_frame_id=frame(i + 1),
-            transform=Transform(translation=Vector3(x=p.x, y=p.y, z=p.z), rotation=IDENTITY),
+            transform=Transform(
+                translation=Vector3(x=p.x, y=p.y, z=p.z),
+                rotation=turns[i] if i < len(turns) else IDENTITY,
+            ),
         )
         for i, p in enumerate(points)
     ]
+
+
+def _unicycles(s: Scenario, ns: int, r: TickRecord, world: Header, ell: float) -> Iterator[Message]:
+    """A unicycle as a ROS robot: its pose and frame at the axle, x along its heading (the point
+    the laws move is l ahead on that axis), and the (v, ω) the world held over the tick as the
+    command in its own frame (world/unicycle.py)."""
+    points = np.asarray(r.positions, dtype=np.float64)
+    headings = np.asarray(r.headings, dtype=np.float64)
+    axles = [_point(c) for c in body_centres(points, headings, ell).tolist()]
+    turns = [_yaw(float(h)) for h in headings]
+    poses = [_pose(c, q) for c, q in zip(axles, turns, strict=True)]
+    yield Message(POSES, ns, PoseArray(header=world, poses=poses))
+    yield Message(TF, ns, TFMessage(transforms=_transforms(world, axles, turns)))
+    speeds, rates = wheel_command(np.asarray(r.velocities, dtype=np.float64), headings, ell, s.dt)
+    for i, (v, w) in enumerate(zip(speeds.tolist(), rates.tolist(), strict=True)):
+        twist = Twist(linear=Vector3(x=v, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=w))
+        yield Message(
+            cmd_vel(i + 1), ns, TwistStamped(header=header(ns, frame(i + 1)), twist=twist)
+        )
 
 
 def _obstacles(s: Scenario, world: Header, r: TickRecord) -> list[Marker]:
