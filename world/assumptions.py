@@ -415,7 +415,7 @@ def _safety(s: Scenario) -> None:
         return
     reach, what = s.agent_radius, "agent_radius"
     if s.unicycle is not None:  # the body is l behind the point, and the point leaves its chord
-        reach, what = s.body_reach, "agent_radius + l + the sagitta of its arc (a unicycle's reach)"
+        reach, what = s.body_reach, "agent_radius + l + l·x²/2 (a unicycle's reach)"
     if c.safety_margin < reach:
         raise ScenarioError(
             "control.safety_margin",

@@ -156,12 +156,6 @@ def scenario_from_dict(
         source=source,
         unicycle=unicycle,
     )
-    if unicycle is not None and scenario.mover_ids:
-        raise ScenarioError(
-            f"obstacles[{scenario.mover_ids[0]}].moves",
-            "moving obstacles with unicycles: not yet (their rows assume a single integrator's "
-            "body; issue 31)",
-        )
     check_assumptions(scenario)
     return scenario
 

@@ -175,9 +175,9 @@ class Scenario:
 
     @property
     def arc_departure(self) -> float:
-        """m: how far a unicycle's point may stray from its chord, the step the safety filter
-        certified, between two ticks: the arc's sagitta at v_max (world/unicycle.py); 0 for
-        single integrators."""
+        """m: how far a unicycle's point may be from where the straight step the safety filter
+        certified would have it at the same instant, at v_max (world/unicycle.py); 0 for single
+        integrators."""
         u = self.unicycle
         return 0.0 if u is None else arc_departure(self.speed_limit, u.lookahead, self.dt)
 
@@ -185,8 +185,8 @@ class Scenario:
     def body_reach(self) -> float:
         """m: the radius about an agent's point that holds its body over any whole tick, which
         the safety filter's guards and cells must cover: ``agent_radius``, and for a unicycle
-        also l (the body's centre is behind the point) and the sagitta of the point's arc over
-        its chord (world/unicycle.py)."""
+        also l (the body's centre is behind the point) and the point's departure from its
+        straight step (world/unicycle.py)."""
         u = self.unicycle
         if u is None:
             return self.agent_radius

@@ -5,8 +5,9 @@ at ω. shoal controls the point p = c + l·e(θ) a projection distance l ahead o
 paper's law and the safety filter give the point's step u·dt over the tick, and the world (the
 robot's driver) holds the one (v, ω) that puts the point exactly there at the tick's end
 (:func:`wheel_command`). In between, the point moves at constant speed along a circular arc
-over that chord, at most the arc's sagitta off it (:func:`arc_departure`); the body, a disc of
-``agent_radius`` about c, lies within l of p.
+over that chord, never farther than l·x²/2 ≈ |u|²dt²/(8l) from where the straight step would
+have it at the same instant (:func:`arc_departure`); the body, a disc of ``agent_radius``
+about c, lies within l of p.
 
 Why the end of the tick and not its start. The Robotarium's near-identity map
 v = e(θ)·u, ω = e⊥(θ)·u/l makes ṗ = u only at the tick's start: the point ends up to
@@ -15,7 +16,7 @@ against a guard, that departure ratchets inwards tick after tick (the filter's r
 inside its guard only forbids going deeper): measured, 14 of 10,000 campaign fields drove a
 body into an obstacle, its point 0.13 m inside its guard. Matching the end keeps every tick's
 start on a step the filter certified (up to rounding), so the single-integrator theorem holds
-at the ticks and only the sagitta is added between them (docs/safety.md, Unicycles).
+at the ticks and only that small departure is added between them (docs/safety.md, Unicycles).
 
 The map: in the body frame the point's step is w·dt with w = R(−θ)·u, and over a tick of (v, ω)
 held the point moves by dt·(sin x/x)·R(θ + x)·(v, l·ω), x = ω·dt/2. Solved for (v, ω):
@@ -110,7 +111,12 @@ def speed_cap(limit: float, lookahead: float, dt: float) -> float:
 
 
 def arc_departure(speed: float, lookahead: float, dt: float) -> float:
-    """m: the most a point moving at ``speed`` (≤ l/dt) strays from its chord over one tick: the
-    sagitta (L/2)·tan(x/2) of an arc of chord L = speed·dt turning 2x, x ≤ arcsin(L/(2l))."""
-    chord = speed * dt
-    return 0.5 * chord * math.tan(0.5 * math.asin(min(chord / (2.0 * lookahead), 1.0)))
+    """m: the most a point moving at ``speed`` (≤ l/dt) is ever away from where the straight
+    step would have it at the same instant, p0 + u·t: l·x²/2 with sin x = speed·dt/(2l).
+
+    d(t) = p(t) − (p0 + u·t) is 0 at both ends of the tick and |d̈| = |p̈| = S·|ω| (the point
+    runs at constant speed S = |u|·x/sin x round a circle, turning at |ω| = 2|x|/dt), so
+    |d| ≤ S·|ω|·dt²/8 = |u|·dt·x²/(4·sin x) = l·x²/2 (≈ |u|²dt²/(8l), the arc's sagitta, which
+    it bounds too)."""
+    x = math.asin(min(speed * dt / (2.0 * lookahead), 1.0))
+    return 0.5 * lookahead * x * x

@@ -1,5 +1,5 @@
 """Unicycles (world/unicycle.py): the exact arc the world integrates, the bounds the safety
-theorem for unicycles rests on (the point lands on its certified step, its arc's sagitta, the
+theorem for unicycles rests on (the point lands on its certified step, its departure, the
 limits), and the guarantee itself along the true arcs over many ticks — with the Robotarium's
 start-of-tick map, whose departure ratchets into the guard, caught."""
 
@@ -14,7 +14,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shoal.bus.messages import Sensing
+from shoal.bus.messages import Mover, Sensing
 from shoal.bus.safety import safe_velocity
 from shoal.tools.commands.report import render_summary
 from shoal.tools.simulator import simulate
@@ -77,13 +77,14 @@ def test_the_arc_is_the_bodys_exact_motion(
 
 @settings(max_examples=300, deadline=None)
 @given(ANGLES, ANGLES, st.floats(0.0, 1.0), st.floats(0.01, 0.5), st.floats(0.001, 0.2))
-def test_the_point_lands_on_its_step_and_keeps_within_the_sagitta_of_it(
+def test_the_point_lands_on_its_step_and_never_strays_from_it_by_more_than_the_departure(
     theta: float, direction: float, fraction: float, ell: float, dt: float
 ) -> None:
     """For any heading and any speed up to l/dt: the tick ends with the point at p0 + u·dt (the
     step the filter certified), and along the whole tick (sampled) the point is within the
-    sagitta of that chord and within |u|·dt of its start (it runs a little faster than |u|
-    along the arc, but never farther than the chord's end)."""
+    departure l·x²/2 of where the straight step has it at the same instant, and within |u|·dt
+    of its start (it runs a little faster than |u| along the arc, but never farther than the
+    chord's end)."""
     speed = fraction * ell / dt
     u = speed * np.array([math.cos(direction), math.sin(direction)])
     p0 = np.array([[2.0, 1.0]])
@@ -91,15 +92,30 @@ def test_the_point_lands_on_its_step_and_keeps_within_the_sagitta_of_it(
     moved, _ = step(p0, h0, u[None], ell, dt)
     assert float(np.linalg.norm(moved[0] - p0[0] - u * dt)) <= 1e-12
     v, w = wheel_command(u[None], h0, ell, dt)
-    sagitta = arc_departure(speed, ell, dt)
-    chord = u * dt
+    departure = arc_departure(speed, ell, dt)
     for tau in np.linspace(0.0, 1.0, 21):
         p, _ = drive(p0, h0, v, w, ell, tau * dt)
         off = p[0] - p0[0]
-        length = float(chord @ chord)
-        along = 0.0 if length == 0.0 else min(max(float(off @ chord) / length, 0.0), 1.0)
-        assert float(np.linalg.norm(off - along * chord)) <= sagitta + 1e-12
+        assert float(np.linalg.norm(off - tau * dt * u)) <= departure + 1e-12
         assert float(np.linalg.norm(off)) <= speed * dt + 1e-12  # the arc is under π
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(0.01, 1.0), st.floats(0.01, 0.5), st.floats(0.001, 0.2))
+def test_the_departure_is_reached_by_a_point_turning_in_place(
+    fraction: float, ell: float, dt: float
+) -> None:
+    """Pure rotation (u across the heading) reaches the bound up to O(x²): l·x²/2 is not loose
+    (measured: 99.9 % of it at a tenth of the cap's speed, 86 % at the cap, x = π/6)."""
+    speed = fraction * ell / dt
+    u = np.array([[0.0, speed]])
+    v, w = wheel_command(u, np.array([0.0]), ell, dt)
+    worst = 0.0
+    for tau in np.linspace(0.0, 1.0, 201):
+        p, _ = drive(np.zeros((1, 2)), np.zeros(1), v, w, ell, tau * dt)
+        worst = max(worst, float(np.linalg.norm(p[0] - tau * dt * u[0])))
+    x = math.asin(speed * dt / (2 * ell))
+    assert worst >= (1 - x * x) * arc_departure(speed, ell, dt)
 
 
 @settings(max_examples=200, deadline=None)
@@ -170,7 +186,7 @@ def _least_clearances(stepper, margin: float, theta: float, ticks: int = 300) ->
 
 
 def test_the_body_stays_off_the_obstacle_tick_after_tick_and_a_start_of_tick_map_does_not() -> None:
-    """ρ = agent_radius + l + the sagitta (Scenario.body_reach): sliding round a guard for 3 s
+    """ρ = agent_radius + l + the departure (Scenario.body_reach): sliding round a guard for 3 s
     from any heading, the body never touches the obstacle. The Robotarium's map, given its own
     one-tick margin agent_radius + l + δ, δ = v²dt²/(2l), lets the body in: its point's departure
     ratchets past δ, tick after tick (measured: 3.1 δ into the guard, the body 1.5 mm in)."""
@@ -255,6 +271,32 @@ def test_from_any_safe_state_any_nominal_keeps_every_body_clear_over_the_tick(
     assert body >= -1e-12
 
 
+@settings(max_examples=300, deadline=None)
+@given(ANGLES, ANGLES, ANGLES, ANGLES, st.floats(0.0, 0.2), st.floats(0.0, 2.5))
+def test_a_person_walking_anywhere_at_its_cap_never_meets_a_body_the_filter_kept_clear(
+    where: float, heading: float, walk: float, aim: float, gap: float, push: float
+) -> None:
+    """A person (a moving obstacle capped at u_max) near a unicycle that starts outside the
+    guard, walking any way at up to u_max through the tick, any nominal: unless the filter
+    reports the agent cornered (then only passive safety is claimed), the body stays clear of
+    the person along the true arc, matched in time with the person's walk."""
+    u_max, r = 1.5, 0.3
+    centre = np.array([math.cos(where), math.sin(where)]) * (r + REACH + gap)
+    person = Mover(7, tuple(centre), r, (0.0, 0.0), u_max)
+    sensing = Sensing(0, (0.0, 0.0), (), (), (), movers=(person,))
+    nominal = (push * V * math.cos(aim), push * V * math.sin(aim))
+    out = safe_velocity(nominal, sensing, 1, dt=DT, margin=REACH, half_separation=REACH,
+                        speed_limit=V, previous=None)  # fmt: skip
+    if out.cornered:
+        return
+    v, w = wheel_command(np.array([out.velocity]), np.array([heading]), L, DT)
+    stride = u_max * np.array([math.cos(walk), math.sin(walk)])
+    for tau in np.linspace(0.0, 1.0, 41):
+        p, h = drive(np.zeros((1, 2)), np.array([heading]), v, w, L, tau * DT)
+        body = body_centres(p, h, L)[0]
+        assert float(np.linalg.norm(body - centre - tau * DT * stride)) >= r + BODY - 1e-12
+
+
 def _worst_on_a_guard(margin: float) -> tuple[float, float]:
     """The least gaps (:func:`_tick_gaps`) over headings and nominal directions (a grid) of an
     agent on its guard circle, its neighbour far away."""
@@ -273,7 +315,7 @@ def _worst_on_a_guard(margin: float) -> tuple[float, float]:
 
 def test_each_term_of_the_margin_is_there_for_a_reason() -> None:
     """ρ = r_b + l + s keeps the body out from every heading and nominal. Without l, the body
-    behind its point starts inside. The sagitta s is the point's own: sliding along its guard
+    behind its point starts inside. The departure s is the point's own: sliding along its guard
     the point dips inside it by nearly s in mid-tick (never more). Measured on this grid, its
     worst dip and the body's worst offset never coincide (turning in place, the point's arc
     bulges away from the body), so the body keeps s to spare: the bound is safe, not tight."""
@@ -340,9 +382,6 @@ def _robotarium(**changes: object) -> str:
                       "trigger_radius": 0.6}}, "control.speed_limit", "whatever its heading"),
         ({"agents": [{"offset": [0, 0], "heading": 7.0}, {"offset": [-0.4, 0.4]}]},
          "agents[0].heading", "outside"),
-        ({"obstacles": [{"centre": [0.0, 1.0], "radius": 0.05,
-                         "moves": {"kind": "drift", "velocity": [0.01, 0.0]}}]},
-         "obstacles[0].moves", "not yet"),
     ],
 )  # fmt: skip
 def test_a_wrong_unicycle_scenario_names_its_field(
@@ -395,3 +434,25 @@ def test_the_summary_says_how_often_the_point_is_held_to_its_cap() -> None:
     assert "speed limit" in render_summary(summary.as_dict())
     plain = load_scenario("default")
     assert summarize(plain, simulate(plain)).at_speed_limit == 0.0
+
+
+def test_unicycles_give_way_to_a_person_and_never_walk_into_one() -> None:
+    """The robotarium's formation with a person walking across its path and back (a moving
+    obstacle at 0.1 m/s, as fast as the robots): every contact is the person's doing, and the
+    bodies keep clear of the standing obstacles and of each other."""
+    person = {
+        "centre": [0.3, -0.6],
+        "radius": 0.06,
+        "moves": {"kind": "route", "waypoints": [[0.3, 0.6], [0.3, -0.6]], "speed": 0.1},
+    }
+    data = yaml.safe_load(_robotarium())
+    data["obstacles"].append(person)
+    data["duration"] = 40.0
+    s = parse_scenario(yaml.safe_dump(data))
+    assert s.mover_ids == (2,)
+    traj = simulate(s)
+    summary = summarize(s, traj)
+    assert summary.agent_at_fault == 0 and summary.collisions == 0
+    assert summary.min_mover_clearance is not None and summary.guard_margin is not None
+    assert summary.min_mover_clearance < 2 * s.control.safety_margin  # the person came close
+    assert summary.guard_margin >= -1e-9
