@@ -42,6 +42,7 @@ from shoal.tools.foxglove.msgs import (
     yaw,
 )
 from shoal.world.scenario import Scenario
+from shoal.world.unicycle import body_centres
 
 LEADER: RGBA = (0.12, 0.47, 0.71, 1.0)
 FOLLOWER: RGBA = (0.17, 0.63, 0.17, 1.0)
@@ -144,6 +145,10 @@ class Layers:
         to the follower (its formation error, as a line)."""
         s = self.scenario
         entities = []
+        unicycles = s.lookahead is not None and len(r.headings) == s.n
+        if unicycles:  # each body's centre, l behind its point (world/unicycle.py)
+            axles = vec3s(body_centres(np.asarray(r.positions), np.asarray(r.headings),
+                                       s.lookahead or 0.0))  # fmt: skip
         for i, p in enumerate(where):
             rgba = _agent_colour(r, i)
             label = f"{i + 1}" + (" leader" if i == 0 else "")
@@ -158,8 +163,8 @@ class Layers:
                 "sigma": f"{r.sigma[i]:.6g}",
                 "theta_rad": f"{r.theta[i]:.6g}",
             }
-            if s.lookahead is not None and i < len(r.headings):
-                spheres = self._unicycle(p, r.headings[i], rgba, arrows)
+            if unicycles:
+                spheres = self._unicycle(p, axles[i], r.headings[i], rgba, arrows)
                 meta["heading_rad"] = f"{r.headings[i]:.6g}"
             else:
                 spheres = [sphere(p, 2 * s.agent_radius, rgba)]
@@ -171,14 +176,15 @@ class Layers:
         entities += self._movers(ns, r)
         return scene_update(entities)
 
-    def _unicycle(self, point: Json, heading: float, rgba: RGBA, arrows: list[Json]) -> list[Json]:
-        """A unicycle: its body about the axle l behind ``point``, a small dot at the point the
-        laws move, and (added to ``arrows``) its heading from the axle to the body's rim."""
+    def _unicycle(
+        self, point: Json, axle: Json, heading: float, rgba: RGBA, arrows: list[Json]
+    ) -> list[Json]:
+        """A unicycle: its body about the ``axle`` l behind ``point``, a small dot at the point
+        the laws move, and (added to ``arrows``) its heading from the axle to the body's rim."""
         s = self.scenario
-        ell = s.lookahead or 0.0
+        reach = (s.lookahead or 0.0) + s.agent_radius
         e = (math.cos(heading), math.sin(heading))
-        axle = {**point, "x": point["x"] - ell * e[0], "y": point["y"] - ell * e[1]}
-        ahead = arrow(axle, [(ell + s.agent_radius) * c for c in e], rgba, s.agent_radius / 4)
+        ahead = arrow(axle, [reach * c for c in e], rgba, s.agent_radius / 4)
         if ahead is not None:
             arrows.append(ahead)
         dot = (*rgba[:3], 1.0)

@@ -33,7 +33,7 @@ import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as ros
 
 from shoal.bus.messages import TickRecord
-from shoal.tools.foxglove.msgs import RGBA, vec3s
+from shoal.tools.foxglove.msgs import RGBA, vec3s, yaw
 from shoal.tools.foxglove.scene import EDGE, MOVER, OBSTACLE, PILLAR_M, Layers, frame
 from shoal.tools.foxglove.views import BLOCK, RunLog
 from shoal.tools.ros2.metrics import Metrics, metrics
@@ -157,10 +157,6 @@ def _pose(p: Point, orientation: Quaternion = IDENTITY) -> Pose:
     return Pose(position=p, orientation=orientation)
 
 
-def _yaw(theta: float) -> Quaternion:
-    return Quaternion(x=0.0, y=0.0, z=math.sin(theta / 2), w=math.cos(theta / 2))
-
-
 def _transforms(
     world: Header, points: list[Point], turns: Sequence[Quaternion] = ()
 ) -> list[TransformStamped]:
@@ -184,7 +180,7 @@ def _unicycles(s: Scenario, ns: int, r: TickRecord, world: Header, ell: float) -
     points = np.asarray(r.positions, dtype=np.float64)
     headings = np.asarray(r.headings, dtype=np.float64)
     axles = [_point(c) for c in body_centres(points, headings, ell).tolist()]
-    turns = [_yaw(float(h)) for h in headings]
+    turns = [Quaternion(**yaw(float(h))) for h in headings]
     poses = [_pose(c, q) for c, q in zip(axles, turns, strict=True)]
     yield Message(POSES, ns, PoseArray(header=world, poses=poses))
     yield Message(TF, ns, TFMessage(transforms=_transforms(world, axles, turns)))
