@@ -102,9 +102,11 @@ def test_a_tolerated_miss_rate_counts_against_the_agent_ticks() -> None:
 
 @pytest.mark.integration
 def test_capacity_counts_every_missed_deadline_and_stops_at_the_first_failing_size() -> None:
-    """At 10 kHz no command can come back within its 0.1 ms period over a router (the round
-    trip alone takes longer), so both the floor and the real run miss every agent-tick: the
-    figures are counted, not assumed, and the ladder stops at its first size."""
+    """At 10 kHz a command can seldom come back within its 0.1 ms period over a router (the
+    round trip alone takes about that long; one in 40 did once, on a machine that paused the
+    world between sending and collecting), so both the floor and the real run miss agent-ticks
+    and their p99 latency is over a period: the figures are counted, not assumed, and the ladder
+    stops at its first size."""
     from shoal.tools.bench.capacity import capacity
 
     rows = capacity(rates=[10_000.0, 20_000.0], ladder=[2, 3], seconds=0.002)
@@ -113,7 +115,9 @@ def test_capacity_counts_every_missed_deadline_and_stops_at_the_first_failing_si
         (trial,) = row["trials"]  # 3 agents never tried: 2 already could not keep up
         assert trial["agents"] == 2
         for side in ("floor", "ours"):
-            assert trial[side]["missed_deadlines"] == 2 * ticks, side
+            assert 1 <= trial[side]["missed_deadlines"] <= 2 * ticks, side
+            p99 = trial[side]["latency_p99_ms"]
+            assert p99 is None or not p99 < 0.1, side  # None, NaN: not one command came back
             assert trial[side]["keeps_up"] is False
 
 
