@@ -62,6 +62,21 @@ def leader_velocity(path: PathSpec, tick: int, dt: float) -> FloatArray:
     return (path_position(path, (tick + 1) * dt) - path_position(path, tick * dt)) / dt
 
 
+def leader_velocities(path: PathSpec, samples: int = 720) -> FloatArray:
+    """(k, dim) the leader's velocities f along its path, m/s: each leg's (waypoints), or a
+    sinusoid's at ``samples`` phases of its period (both extremes of its wave among them)."""
+    if isinstance(path, Sinusoid):
+        phase = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
+        wave = 2.0 * math.pi * path.amplitude / path.period
+        along = np.asarray(path.direction, dtype=np.float64) * path.speed
+        across = np.asarray(path.normal, dtype=np.float64) * wave
+        return along[None, :] + np.cos(phase)[:, None] * across[None, :]
+    points = np.asarray(path.points, dtype=np.float64)
+    legs = [(b - a) / norm(b - a) * path.speed for a, b in itertools.pairwise(points)
+            if norm(b - a) > 0]  # fmt: skip
+    return np.asarray(legs, dtype=np.float64).reshape(len(legs), points.shape[1])
+
+
 def peak_speed(path: PathSpec) -> FloatArray:
     """f_max per coordinate, m/s: the largest |f_c(t)| over all t (for |f| < β and the bounds)."""
     if isinstance(path, Sinusoid):

@@ -7,7 +7,8 @@ Assumption 2: an evading agent always keeps a non-evading neighbour. Which agent
     Runs count the ticks where the literal assumption fails.
 Assumption 3: desired inter-agent distances exceed 2 r_max (under every demanded scale).
 Assumption 4: the leader's path clears every obstacle by its guard radius r_j + ρ.
-Theorem 1 needs |f| < β per coordinate: a warning, since a run is still meaningful.
+Theorem 1 needs |f| < β per coordinate, and a speed limit under which the capped law still
+    closes every coordinate's error (cap_needed): warnings, since a run is still meaningful.
 The safety filter's theorem (docs/safety.md), with ``control.safety: filter``: (D) one step at
     the speed limit cannot reach an unsensed obstacle's guard or an unsensed agent's cell,
     v_max·dt ≤ min(d − r_max − ρ, (d − 2R)/2); the guard ρ and the separation 2R cover the
@@ -39,9 +40,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.bus.geometry import FloatArray, norm, segment_distance, shaped
-from shoal.bus.path import path_position, path_positions, peak_speed
-from shoal.bus.types import Waypoints
-from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
+from shoal.bus.path import leader_velocities, path_position, path_positions, peak_speed
+from shoal.bus.types import PathSpec, Waypoints
+from shoal.world.errors import (
+    AssumptionError,
+    BetaWarning,
+    DetourWarning,
+    ScenarioError,
+    SpeedCapWarning,
+)
 from shoal.world.graph import communication_graph, hop_distances, reached_from_leader
 from shoal.world.movers import Route
 from shoal.world.scenario import Scenario
@@ -491,6 +498,8 @@ def _movers(s: Scenario) -> None:
 
 
 def check_speed(s: Scenario) -> None:
+    """Warn when |f| ≥ β in some coordinate, and when the speed limit is below
+    :func:`cap_needed`."""
     peak = peak_speed(s.path)
     worst = int(np.argmax(peak))
     if peak[worst] >= s.control.beta:
@@ -500,6 +509,33 @@ def check_speed(s: Scenario) -> None:
             BetaWarning,
             stacklevel=3,
         )
+    need = cap_needed(s.path, s.control.beta)
+    if s.control.safety == "filter" and s.speed_limit < need:
+        cause = " (the unicycle's point cap)" if s.unicycle is not None else ""
+        warnings.warn(
+            f"{s.name}: the speed limit {s.speed_limit:.4g} m/s{cause} is below {need:.4g} m/s, "
+            "the least at which the capped law still closes every coordinate of a follower's "
+            "error against the leader's velocity: Theorem 1 does not guarantee convergence "
+            "(lower the leader's speed, or give the robots more speed)",
+            SpeedCapWarning,
+            stacklevel=3,
+        )
+
+
+def cap_needed(path: PathSpec, beta: float) -> float:
+    """m/s: the least speed limit under which a follower's capped law still closes its error
+    in every coordinate, whatever the leader's velocity f on ``path``.
+
+    The cap scales the nominal f − β·s (s the signs of the error) by λ = v_max/‖f − β·s‖ ≤ 1;
+    coordinate c's error then changes at λ(f_c − β·s_c) − f_c, which closes it iff
+    λ > |f_c|/(β + |f_c|) (the worst case: s_c against f_c). With ‖f − β·s‖ at most
+    √Σ(|f_c| + β)², that holds for every s when v_max exceeds
+    √Σ(|f_c| + β)² · max_c |f_c|/(β + |f_c|) — maximised over the path's velocities."""
+    f = np.abs(leader_velocities(path))
+    if f.size == 0:
+        return 0.0
+    longest = np.sqrt(np.sum((f + beta) ** 2, axis=1))
+    return float(np.max(longest * np.max(f / (beta + f), axis=1)))
 
 
 # Every load-time check, in the order the loader runs them (it stops at the first).

@@ -32,6 +32,13 @@ class BetaWarning(ScenarioWarning):
     """The leader moves as fast as β or faster in some coordinate: Theorem 1 does not apply."""
 
 
+class SpeedCapWarning(ScenarioWarning):
+    """The speed limit is so low that, scaled down by it, the law's sign term may not close a
+    follower's error against the leader's velocity (world/assumptions.py, cap_needed): Theorem
+    1's bound does not hold and the formation may never arrive (a unicycle's point cap is the
+    usual cause)."""
+
+
 class DetourWarning(ScenarioWarning):
     """The leader's path crosses an obstacle's guard (Assumption 4 broken): with the safety
     filter the leader goes round it (agent/leader.py) and the run goes ahead."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import itertools
 import math
 import re
 import warnings
@@ -17,7 +18,15 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from shoal.world.errors import AssumptionError, BetaWarning, DetourWarning, ScenarioError
+from shoal.bus.types import Waypoints
+from shoal.world.assumptions import cap_needed
+from shoal.world.errors import (
+    AssumptionError,
+    BetaWarning,
+    DetourWarning,
+    ScenarioError,
+    SpeedCapWarning,
+)
 from shoal.world.loader import builtin_names, load_scenario, parse_scenario, scenario_from_dict
 
 DELETE = object()
@@ -208,6 +217,73 @@ def test_beta_warning_only_when_leader_as_fast_as_beta(case: str) -> None:
             scenario_from_dict(data)
 
 
+# -- room under the speed limit for the capped law ----------------------------------------------
+
+# base(): f = (1, 0), β = 2: √((1 + 2)² + 2²)·1/3 = 1.202 m/s
+SPEED_CAP_CASES = {
+    "below": (edit("control.speed_limit", 1.19), True),
+    "above": (edit("control.speed_limit", 1.21), False),
+    "derived": (base(), False),  # the theorem's own cap, (d − r − ρ)/dt, is far above
+    "3-d": (edit("control.speed_limit", 1.37, base3d()), True),  # √(9 + 4 + 4)/3 = 1.374
+    # a sinusoid's f = (1, 1.257·cos): at its peak √(3² + 3.257²)·1.257/3.257 = 1.709 m/s
+    "sinusoid-below": (edit("control.speed_limit", 1.70, sinusoid()), True),
+    "sinusoid-above": (edit("control.speed_limit", 1.71, sinusoid()), False),
+    "paper-law": (  # the paper's law alone: no filter, no cap to cut it
+        edit("control", {**base()["control"], "safety": "paper", "speed_limit": 1.0}),
+        False,
+    ),
+}
+
+
+def _capped_law_closes(f: Any, beta: float, cap: float) -> bool:
+    """Whether the nominal f − β·s, scaled down to ``cap``, moves every coordinate of the error
+    against its sign s_c faster than the leader drifts it, for every sign pattern s."""
+    for signs in itertools.product((-1.0, 1.0), repeat=len(f)):
+        s = np.asarray(signs)
+        nominal = f - beta * s
+        scale = min(1.0, cap / float(np.linalg.norm(nominal)))
+        rate = scale * nominal - f  # de/dt, e the follower's error
+        if np.any(rate * s >= 0):
+            return False
+    return True
+
+
+def test_the_cap_needed_is_the_least_under_which_every_coordinate_closes() -> None:
+    """For f and β drawn at random: under cap_needed·(1 + 1e-9) the capped law closes every
+    coordinate for every sign pattern; under cap_needed·(1 − 1e-3) one is left open."""
+    rng = np.random.default_rng(31)
+    for _ in range(300):
+        dim = int(rng.integers(2, 4))
+        beta = float(rng.uniform(0.05, 3.0))
+        f = rng.uniform(-0.95, 0.95, size=dim) * beta  # |f_c| < β, as Theorem 1 has it
+        path = Waypoints(points=((0.0,) * dim, tuple(10.0 * f)), speed=float(np.linalg.norm(f)))
+        need = cap_needed(path, beta)
+        assert _capped_law_closes(f, beta, need * (1 + 1e-9)), (f, beta)
+        assert not _capped_law_closes(f, beta, need * (1 - 1e-3)), (f, beta)
+
+
+@pytest.mark.parametrize("case", SPEED_CAP_CASES)
+def test_speed_cap_warning_when_the_cap_can_cut_the_sign_term(case: str) -> None:
+    data, warns = SPEED_CAP_CASES[case]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scenario_from_dict(data)
+    assert [w.category for w in caught] == ([SpeedCapWarning] if warns else [])
+    if warns:
+        assert "closes every coordinate of a follower's error" in str(caught[0].message)
+
+
+def test_the_unicycle_speed_cap_warning_names_the_point_cap() -> None:
+    data = edit("kinematics", {"model": "unicycle", "lookahead": 0.1, "max_speed": 0.2,
+                               "max_turn_rate": 2.0})  # fmt: skip
+    data = edit("control.beta", 0.3, data)
+    data = edit("leader.speed", 0.2, data)  # needs √(0.5² + 0.3²)·0.2/0.5 = 0.233 m/s
+    data = edit("agent_radius", 0.05, data)
+    with pytest.warns(SpeedCapWarning, match=r"\(the unicycle's point cap\) is below 0\.2332"):
+        s = scenario_from_dict(data)
+    assert s.speed_limit < cap_needed(s.path, s.control.beta)
+
+
 # -- field errors -------------------------------------------------------------------------------
 
 FIELD_CASES = [
@@ -369,7 +445,7 @@ def _only_scenario_errors(call: Any, *args: Any) -> None:
         warnings.simplefilter("always")
         with contextlib.suppress(ScenarioError):
             call(*args)
-    allowed = (BetaWarning, DetourWarning)
+    allowed = (BetaWarning, DetourWarning, SpeedCapWarning)
     assert all(issubclass(w.category, allowed) for w in caught), [str(w) for w in caught]
 
 
