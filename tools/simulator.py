@@ -82,7 +82,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     d = scenario.control.sensing_radius
     params = scenario.params()
     positions = scenario.initial_positions
-    bodies = scenario.unicycle
+    bodies = scenario.lookaheads  # unicycles: l per agent (0: a single integrator)
     headings = scenario.initial_headings if bodies is not None else None
     for k in range(scenario.steps):
         crowd, sensings = obstacles.sense(k, positions, crowd, d)
@@ -99,9 +99,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
         velocities, _ = actuate(sensings, np.array(commanded), params, scenario.dt)
         turned = None
         if bodies is not None and headings is not None:
-            moved, turned = unicycle_step(
-                positions, headings, velocities, bodies.lookahead, scenario.dt
-            )
+            moved, turned = unicycle_step(positions, headings, velocities, bodies, scenario.dt)
         else:
             moved = integrate(positions, velocities, scenario.dt)
         ordered = tuple(states[i + 1] for i in range(n))
@@ -114,11 +112,14 @@ def run(scenario: Scenario) -> Iterator[Tick]:
 
 def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
     """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
-    bodies = scenario.unicycle
     recorder = Recorder(
-        scenario.dt, scenario.n, scenario.dim, scenario.steps, movers=len(scenario.mover_ids),
-        lookahead=None if bodies is None else bodies.lookahead,
-    )  # fmt: skip
+        scenario.dt,
+        scenario.n,
+        scenario.dim,
+        scenario.steps,
+        movers=len(scenario.mover_ids),
+        lookahead=scenario.lookaheads,
+    )
     after = scenario.initial_positions
     turned: FloatArray | None = scenario.initial_headings
     for t in run(scenario):

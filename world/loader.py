@@ -135,7 +135,18 @@ def scenario_from_dict(
     if seed < 0:
         raise ScenarioError("seed", f"must be ≥ 0, got {seed}")
     path = _path(data.get("leader"), dim)
-    agents = _agents(data.get("agents"), dim, path, seed, data.get("initial_noise", 0.0))
+    agents = _agents(
+        data.get("agents"), dim, path, seed, data.get("initial_noise", 0.0), unicycle is not None
+    )
+    wheeled = [a for a in agents if not a.single]
+    if wheeled and unicycle is None:
+        raise ScenarioError(
+            f"agents[{wheeled[0].agent_id - 1}].kinematics",
+            "is unicycle, but the scenario's kinematics section gives no unicycle (model: "
+            "unicycle with its lookahead and limits)",
+        )
+    if unicycle is not None and not wheeled:
+        unicycle = None  # every agent overridden to a single integrator
     directed, edges = _graph(data.get("graph"), len(agents))
     scenario = Scenario(
         name=_string(data.get("name", default_name), "name"),
@@ -381,7 +392,12 @@ def _path(value: Any, dim: int) -> PathSpec:
     )
 
 
-def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tuple[AgentSpec, ...]:
+def _agents(
+    value: Any, dim: int, path: PathSpec, seed: int, noise: Any, unicycles: bool
+) -> tuple[AgentSpec, ...]:
+    """``agents``; each a unicycle when ``unicycles`` (the scenario's kinematics say so) unless
+    its own ``kinematics: single`` makes it holonomic (and ``kinematics: unicycle`` the other
+    way round, which then needs the scenario's unicycle figures)."""
     raw = _list(value, "agents")
     if len(raw) < 2:
         raise ScenarioError("agents", "needs a leader and at least one follower")
@@ -392,7 +408,7 @@ def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tupl
     for k, item in enumerate(raw):
         where = f"agents[{k}]"
         entry = _mapping(item, where)
-        _no_unknown(entry, {"offset", "initial", "heading"}, where)
+        _no_unknown(entry, {"offset", "initial", "heading", "kinematics"}, where)
         offset = _vector(entry.get("offset"), f"{where}.offset", dim)
         jitter = rng.uniform(-spread, spread, size=dim)  # drawn for every agent: stable streams
         if k == 0:
@@ -411,9 +427,15 @@ def _agents(value: Any, dim: int, path: PathSpec, seed: int, noise: Any) -> tupl
         heading = _number(entry.get("heading", 0.0), f"{where}.heading")
         if not -2 * math.pi <= heading <= 2 * math.pi:
             raise ScenarioError(f"{where}.heading", f"{heading} rad is outside [−2π, 2π]")
+        model = entry.get("kinematics")
+        if model is not None and model not in ("single", "unicycle"):
+            raise ScenarioError(
+                f"{where}.kinematics", f"must be single or unicycle, got {_shown(model)}"
+            )
         spec = AgentSpec(
-            agent_id=k + 1, initial=initial, offset=offset, given_initial=given, heading=heading
-        )
+            agent_id=k + 1, initial=initial, offset=offset, given_initial=given, heading=heading,
+            single=model == "single" or (model is None and not unicycles),
+        )  # fmt: skip
         agents.append(spec)
     return tuple(agents)
 

@@ -141,12 +141,9 @@ class World(Declarations):
         obstacles = Obstacles.of(s)
         crowd = obstacles.start(s)
         positions = s.initial_positions
-        bodies = s.unicycle
+        bodies = s.lookaheads  # unicycles: l per agent (0: a single integrator of a mixed swarm)
         headings = s.initial_headings if bodies is not None else None
-        recorder = Recorder(
-            s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids),
-            lookahead=None if bodies is None else bodies.lookahead,
-        )  # fmt: skip
+        recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids), lookahead=bodies)
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
         latest = self.latest
@@ -178,9 +175,7 @@ class World(Declarations):
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
             if bodies is not None and headings is not None:
-                positions, headings = unicycle_step(
-                    positions, headings, velocities, bodies.lookahead, s.dt
-                )
+                positions, headings = unicycle_step(positions, headings, velocities, bodies, s.dt)
             else:
                 positions = integrate(positions, velocities, s.dt)
             crowd = obstacles.advance(crowd)

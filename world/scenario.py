@@ -54,6 +54,7 @@ class AgentSpec:
     offset: Vector
     given_initial: bool = False
     heading: float = 0.0  # rad: a unicycle's initial heading (ignored for single integrators)
+    single: bool = True  # a single integrator; False: a unicycle (the scenario's ``unicycle``)
 
 
 # Realtime: ticks one round of Algorithm 1 may take. An agent acts on the freshest state it has
@@ -172,6 +173,16 @@ class Scenario:
     def lookahead(self) -> float | None:
         """l, m, for unicycles (their point ahead of the axle); None for single integrators."""
         return None if self.unicycle is None else self.unicycle.lookahead
+
+    @property
+    def lookaheads(self) -> FloatArray | None:
+        """(n,) l per agent, m: the unicycles' lookahead, 0 for the single integrators of a
+        mixed formation (world/unicycle.py moves those straight); None when every agent is a
+        single integrator."""
+        if self.unicycle is None:
+            return None
+        ell = self.unicycle.lookahead
+        return np.asarray([0.0 if a.single else ell for a in self.agents], dtype=np.float64)
 
     @property
     def arc_departure(self) -> float:

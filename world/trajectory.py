@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import TickRecord
+from shoal.world.unicycle import Lookahead
 from shoal.world.unicycle import step as unicycle_step
 
 
@@ -49,7 +50,7 @@ class Trajectory:
 
     @classmethod
     def from_records(
-        cls, records: Sequence[TickRecord], dt: float, lookahead: float | None = None
+        cls, records: Sequence[TickRecord], dt: float, lookahead: Lookahead | None = None
     ) -> Trajectory:
         """The world's tick records (in tick order) as a trajectory; the positions after the
         last record are integrated exactly as the world does (positions + dt · velocities;
@@ -154,7 +155,7 @@ class Recorder:
         steps: int,
         *,
         movers: int = 0,
-        lookahead: float | None = None,
+        lookahead: Lookahead | None = None,
     ) -> None:
         self.dt = dt
         self.ticks = 0

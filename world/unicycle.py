@@ -38,20 +38,32 @@ def _sinc(x: float) -> float:
     return math.sin(x) / x if x != 0.0 else 1.0
 
 
+Lookahead = float | FloatArray  # l for every agent, or (n,) per agent: 0 for a single integrator
+
+
+def _each(lookahead: Lookahead, n: int) -> list[float]:
+    if isinstance(lookahead, float | int):
+        return [float(lookahead)] * n
+    return [float(x) for x in lookahead]
+
+
 def wheel_command(
-    u: FloatArray, headings: FloatArray, lookahead: float, dt: float
+    u: FloatArray, headings: FloatArray, lookahead: Lookahead, dt: float
 ) -> tuple[FloatArray, FloatArray]:
     """(v, ω) per agent, m/s and rad/s, which held for ``dt`` s move each point by ``u``·dt
-    exactly ((n, 2) point velocities, (n,) headings)."""
+    exactly ((n, 2) point velocities, (n,) headings); a single integrator's (l = 0) is NaN."""
     n = len(headings)
     v = np.empty(n)
     omega = np.empty(n)
-    for i in range(n):
+    for i, ell in enumerate(_each(lookahead, n)):
+        if ell == 0.0:
+            v[i] = omega[i] = math.nan
+            continue
         theta = float(headings[i])
         cos, sin = math.cos(theta), math.sin(theta)
         ux, uy = float(u[i, 0]), float(u[i, 1])
         wx, wy = cos * ux + sin * uy, -sin * ux + cos * uy
-        x = math.atan2(wy, 2.0 * lookahead / dt + wx)
+        x = math.atan2(wy, 2.0 * ell / dt + wx)
         omega[i] = 2.0 * x / dt
         v[i] = (math.cos(x) * wx + math.sin(x) * wy) / _sinc(x)
     return v, omega
@@ -62,17 +74,17 @@ def drive(
     headings: FloatArray,
     v: FloatArray,
     omega: FloatArray,
-    lookahead: float,
+    lookahead: Lookahead,
     elapsed: float,
 ) -> tuple[FloatArray, FloatArray]:
     """The points (n, 2) and headings (n,) after ``elapsed`` s with (v, ω) held: the body's exact
-    arc (a straight line where ω = 0), the point l ahead of it."""
+    arc (a straight line where ω = 0), the point l ahead of it. Only for unicycles (l > 0)."""
     out = np.empty_like(points)
     after = np.empty_like(headings)
-    for i in range(len(points)):
+    for i, ell in enumerate(_each(lookahead, len(points))):
         theta, w, speed = float(headings[i]), float(omega[i]), float(v[i])
-        cx = float(points[i, 0]) - lookahead * math.cos(theta)
-        cy = float(points[i, 1]) - lookahead * math.sin(theta)
+        cx = float(points[i, 0]) - ell * math.cos(theta)
+        cy = float(points[i, 1]) - ell * math.sin(theta)
         # The chord of the body's arc: v·t·sin(x)/x along θ + x, x = ω·t/2 (the same as
         # (v/ω)(sin θ' − sin θ, cos θ − cos θ'), without its cancellation when ω is tiny).
         half = 0.5 * w * elapsed
@@ -80,24 +92,41 @@ def drive(
         cx += chord * math.cos(theta + half)
         cy += chord * math.sin(theta + half)
         turned = theta + w * elapsed
-        out[i, 0] = cx + lookahead * math.cos(turned)
-        out[i, 1] = cy + lookahead * math.sin(turned)
+        out[i, 0] = cx + ell * math.cos(turned)
+        out[i, 1] = cy + ell * math.sin(turned)
         after[i] = turned
     return out, after
 
 
 def step(
-    points: FloatArray, headings: FloatArray, u: FloatArray, lookahead: float, dt: float
+    points: FloatArray, headings: FloatArray, u: FloatArray, lookahead: Lookahead, dt: float
 ) -> tuple[FloatArray, FloatArray]:
     """One tick: the points and headings after ``dt`` s of the :func:`wheel_command` that moves
-    each point by ``u``·dt; the points land there up to rounding."""
-    v, omega = wheel_command(u, headings, lookahead, dt)
-    return drive(points, headings, v, omega, lookahead, dt)
+    each point by ``u``·dt; the points land there up to rounding. A single integrator of a
+    mixed formation (l = 0) moves by exactly ``u``·dt (the same bits as
+    world/kinematics.py's ``integrate``) and keeps its heading."""
+    if isinstance(lookahead, float | int) or bool(np.all(np.asarray(lookahead) > 0.0)):
+        v, omega = wheel_command(u, headings, lookahead, dt)
+        return drive(points, headings, v, omega, lookahead, dt)
+    single = np.asarray(lookahead) == 0.0
+    wheeled = ~single
+    out = points + dt * u  # elementwise: the single integrators' rows are integrate()'s bits
+    after = np.array(headings, dtype=np.float64)
+    if wheeled.any():
+        lw = np.asarray(lookahead)[wheeled]
+        v, omega = wheel_command(u[wheeled], headings[wheeled], lw, dt)
+        out[wheeled], after[wheeled] = drive(points[wheeled], headings[wheeled], v, omega, lw, dt)
+    return out, after
 
 
-def body_centres(points: FloatArray, headings: FloatArray, lookahead: float) -> FloatArray:
-    """Where each body's centre (the axle's midpoint) is, l behind its point."""
-    return points - lookahead * np.stack([np.cos(headings), np.sin(headings)], axis=-1)
+def body_centres(points: FloatArray, headings: FloatArray, lookahead: Lookahead) -> FloatArray:
+    """Where each body's centre (the axle's midpoint) is, l behind its point (a single
+    integrator's, l = 0, is its point)."""
+    ell = np.asarray(lookahead, dtype=np.float64)
+    if ell.ndim == 1:
+        ell = ell[..., None]
+    back: FloatArray = points - ell * np.stack([np.cos(headings), np.sin(headings)], axis=-1)
+    return back
 
 
 def speed_cap(limit: float, lookahead: float, dt: float) -> float:

@@ -292,6 +292,32 @@ def test_a_unicycle_is_a_robot_at_its_axle_facing_its_heading_driven_by_v_and_om
             assert after == pytest.approx(np.array(bag.records[k + 1].positions), abs=1e-12)
 
 
+def test_a_mixed_formations_single_integrators_are_driven_by_their_velocity(
+    tmp_path: Path,
+) -> None:
+    """Followers 2 and 5 holonomic among GRITSbots: their poses sit unturned at their points
+    and their cmd_vel is the velocity the world applied; the unicycles keep their (v, ω)."""
+    text = resources.files("shoal.world.scenarios").joinpath("robotarium.yaml").read_text()
+    text = text.replace("duration: 75.0", "duration: 1.0")
+    for offset in ("[-0.4, 0.4]}", "[-0.8, -0.8]}"):
+        text = text.replace(offset, offset[:-1] + ", kinematics: single}")
+    bag = export_bag(tmp_path, text)
+    s = bag.run.scenario
+    assert s.lookaheads is not None and s.lookaheads.tolist() == [0.05, 0.0, 0.05, 0.05, 0.0]
+    poses = [m for _ns, m in bag.messages["/shoal/poses"]]
+    commands = {i: [m.twist for _ns, m in bag.messages[f"/agent_{i}/cmd_vel"]] for i in (1, 2, 5)}
+    for k, (r, pose_array) in enumerate(zip(bag.records, poses, strict=True)):
+        for i in (1, 4):  # followers 2 and 5
+            p = pose_array.poses[i]
+            assert (p.position.x, p.position.y) == tuple(r.positions[i])
+            assert (p.orientation.z, p.orientation.w) == (0.0, 1.0)
+            twist = commands[i + 1][k]
+            assert (twist.linear.x, twist.linear.y) == tuple(r.velocities[i])
+            assert twist.angular.z == 0.0
+        v, w = wheel_command(np.array(r.velocities[:1]), np.array(r.headings[:1]), 0.05, s.dt)
+        assert (commands[1][k].linear.x, commands[1][k].angular.z) == (v[0], w[0])
+
+
 # -- refusals -----------------------------------------------------------------------------------
 
 

@@ -456,3 +456,75 @@ def test_unicycles_give_way_to_a_person_and_never_walk_into_one() -> None:
     assert summary.min_mover_clearance is not None and summary.guard_margin is not None
     assert summary.min_mover_clearance < 2 * s.control.safety_margin  # the person came close
     assert summary.guard_margin >= -1e-9
+
+
+# -- mixed formations ---------------------------------------------------------------------------
+
+
+def _mixed() -> str:
+    """The robotarium formation with followers 2 and 5 holonomic (single integrators)."""
+    data = yaml.safe_load(_robotarium())
+    data["agents"][1]["kinematics"] = "single"
+    data["agents"][4]["kinematics"] = "single"
+    return yaml.safe_dump(data)
+
+
+@pytest.mark.parametrize(
+    ("agents", "kinematics", "field", "says"),
+    [
+        ([{"offset": [0, 0]}, {"offset": [-0.4, 0.4], "kinematics": "tank"}], True,
+         "agents[1].kinematics", "single or unicycle"),
+        ([{"offset": [0, 0]}, {"offset": [-0.4, 0.4], "kinematics": "unicycle"}], False,
+         "agents[1].kinematics", "gives no unicycle"),
+    ],
+)  # fmt: skip
+def test_a_wrong_agent_model_names_its_field(
+    agents: list[dict[str, object]], kinematics: bool, field: str, says: str
+) -> None:
+    data = yaml.safe_load(_robotarium(agents=agents, obstacles=[]))
+    data["graph"]["edges"] = [[1, 2]]
+    if not kinematics:
+        del data["kinematics"]
+        data["control"] = {"sensing_radius": 1.5, "trigger_radius": 1.2}
+        data["agent_radius"] = 0.05
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(yaml.safe_dump(data))
+    assert caught.value.field == field and says in str(caught.value)
+
+
+def test_a_mixed_formation_moves_its_singles_straight_and_its_unicycles_along_arcs() -> None:
+    """Followers 2 and 5 are single integrators among GRITSbots: every tick they move by
+    exactly their velocity·dt (the bits of positions + dt·velocities) and keep their heading;
+    the unicycles turn, their points land on their steps up to rounding; the run arrives and
+    every body (a unicycle's about its axle, a single's about its point) stays clear along the
+    true arcs; all-unicycle and every other scenario unchanged."""
+    s = parse_scenario(_mixed())
+    assert s.lookaheads is not None and s.lookaheads.tolist() == [0.05, 0.0, 0.05, 0.05, 0.0]
+    traj = simulate(s)
+    assert traj.headings is not None and summarize(s, traj).arrived
+    singles, wheeled = [1, 4], [0, 2, 3]
+    dt = s.dt
+    steps = traj.positions[:-1] + dt * traj.velocities
+    assert np.array_equal(traj.positions[1:, singles], steps[:, singles])
+    assert (traj.headings[:, singles] == traj.headings[0, singles]).all()
+    assert np.abs(traj.positions[1:, wheeled] - steps[:, wheeled]).max() < 1e-12
+    assert np.ptp(traj.headings[:, [2, 3]], axis=0).min() > 0.1  # the wheeled followers turned
+    ells = s.lookaheads
+    least_obstacle = least_pair = math.inf
+    for k in range(0, traj.ticks, 3):
+        v, w = wheel_command(traj.velocities[k], traj.headings[k], ells, dt)
+        for tau in np.linspace(0.0, 1.0, 8, endpoint=False):
+            p = traj.positions[k] + tau * dt * traj.velocities[k]  # the singles
+            h = traj.headings[k].copy()
+            start = traj.positions[k, wheeled], traj.headings[k, wheeled]
+            p[wheeled], h[wheeled] = drive(*start, v[wheeled], w[wheeled], ells[wheeled], tau * dt)
+            c = body_centres(p, h, ells)
+            gaps = np.linalg.norm(c[:, None] - s.obstacle_centres[None], axis=-1)
+            least_obstacle = min(least_obstacle, float((gaps - s.obstacle_radii).min()))
+            d = np.linalg.norm(c[:, None] - c[None], axis=-1) + np.eye(s.n) * 1e9
+            least_pair = min(least_pair, float(d.min()))
+        assert np.isnan(v[singles]).all() and np.isfinite(v[wheeled]).all()
+    assert least_obstacle > s.agent_radius and least_pair > 2 * s.agent_radius
+    whole = load_scenario("robotarium")
+    assert whole.lookaheads is not None and set(whole.lookaheads.tolist()) == {0.05}
+    assert load_scenario("default").lookaheads is None

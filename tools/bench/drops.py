@@ -58,7 +58,7 @@ class DropRow:
 def steady_errors(scenario: str | Path, log: Path, settle: float) -> Any:
     """The worst follower's formation error (m) at every tick from ``settle`` s on."""
     scn = load_scenario(scenario)
-    traj = read_trajectory(log, dt=scn.dt, lookahead=scn.lookahead)
+    traj = read_trajectory(log, dt=scn.dt, lookahead=scn.lookaheads)
     worst = formation_errors(scn, traj).max(axis=1)
     return worst[round(settle / scn.dt) :]
 

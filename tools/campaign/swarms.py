@@ -79,7 +79,7 @@ def run_swarms(
 def _exact(log: Path, field: Scenario) -> bool:
     """Whether the run's log equals the reference bit for bit; a log with a gap does not."""
     try:
-        return read_trajectory(log, dt=field.dt, lookahead=field.lookahead).equals(simulate(field))
+        return read_trajectory(log, dt=field.dt, lookahead=field.lookaheads).equals(simulate(field))
     except ValueError:  # ticks missing or twice (tools/log/reader.py)
         return False
 

@@ -26,6 +26,7 @@ from shoal.tools.foxglove.msgs import Json
 from shoal.world.metrics import clearances, formation_errors, pair_distances
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
+from shoal.world.unicycle import Lookahead
 
 DIGITS = 6  # µm: finer than any distance the run resolves, and short JSON
 
@@ -147,7 +148,7 @@ def topics_of(scenario: Scenario) -> dict[str, str]:
 
 
 def trajectory_of(
-    records: Sequence[TickRecord], dt: float, lookahead: float | None = None
+    records: Sequence[TickRecord], dt: float, lookahead: Lookahead | None = None
 ) -> Trajectory:
     """The records as a Trajectory (world/metrics.py's input); the row after the last record is
     integrated as the world does."""
@@ -158,7 +159,7 @@ def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, J
     """For each record, its message on every scalar topic (topic → message)."""
     if not records:
         return []
-    s, traj = scenario, trajectory_of(records, scenario.dt, scenario.lookahead)
+    s, traj = scenario, trajectory_of(records, scenario.dt, scenario.lookaheads)
     rows = len(records)
     errors = _rounded(formation_errors(s, traj) if s.n > 1 else np.zeros((rows, 0)))
     pairs = _rounded(pair_distances(traj)[:-1]) if s.n > 1 else None

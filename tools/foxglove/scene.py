@@ -145,10 +145,10 @@ class Layers:
         to the follower (its formation error, as a line)."""
         s = self.scenario
         entities = []
-        unicycles = s.lookahead is not None and len(r.headings) == s.n
-        if unicycles:  # each body's centre, l behind its point (world/unicycle.py)
-            axles = vec3s(body_centres(np.asarray(r.positions), np.asarray(r.headings),
-                                       s.lookahead or 0.0))  # fmt: skip
+        ells = s.lookaheads
+        unicycles = ells is not None and len(r.headings) == s.n
+        if ells is not None and unicycles:  # each body's centre, l behind its point
+            axles = vec3s(body_centres(np.asarray(r.positions), np.asarray(r.headings), ells))
         for i, p in enumerate(where):
             rgba = _agent_colour(r, i)
             label = f"{i + 1}" + (" leader" if i == 0 else "")
@@ -163,8 +163,8 @@ class Layers:
                 "sigma": f"{r.sigma[i]:.6g}",
                 "theta_rad": f"{r.theta[i]:.6g}",
             }
-            if unicycles:
-                spheres = self._unicycle(p, axles[i], r.headings[i], rgba, arrows)
+            if ells is not None and unicycles and ells[i] > 0:  # (a mixed swarm's single: 0)
+                spheres = self._unicycle(p, axles[i], r.headings[i], float(ells[i]), rgba, arrows)
                 meta["heading_rad"] = f"{r.headings[i]:.6g}"
             else:
                 spheres = [sphere(p, 2 * s.agent_radius, rgba)]
@@ -177,12 +177,12 @@ class Layers:
         return scene_update(entities)
 
     def _unicycle(
-        self, point: Json, axle: Json, heading: float, rgba: RGBA, arrows: list[Json]
+        self, point: Json, axle: Json, heading: float, ell: float, rgba: RGBA, arrows: list[Json]
     ) -> list[Json]:
         """A unicycle: its body about the ``axle`` l behind ``point``, a small dot at the point
         the laws move, and (added to ``arrows``) its heading from the axle to the body's rim."""
         s = self.scenario
-        reach = (s.lookahead or 0.0) + s.agent_radius
+        reach = ell + s.agent_radius
         e = (math.cos(heading), math.sin(heading))
         ahead = arrow(axle, [reach * c for c in e], rgba, s.agent_radius / 4)
         if ahead is not None:

@@ -15,6 +15,7 @@ from shoal.bus.messages import TickRecord
 from shoal.world.loader import parse_scenario
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
+from shoal.world.unicycle import Lookahead
 
 
 def iter_channel(path: Path, topic_suffix: str) -> Iterator[tuple[str, bytes, int]]:
@@ -40,10 +41,10 @@ def read_ticks(path: Path) -> list[TickRecord]:
     return sorted(records, key=lambda r: r.tick)
 
 
-def read_trajectory(path: Path, *, dt: float, lookahead: float | None = None) -> Trajectory:
+def read_trajectory(path: Path, *, dt: float, lookahead: Lookahead | None = None) -> Trajectory:
     """The run's trajectory as the world recorded it; the last positions are integrated from
     the last record exactly as the world does (positions + dt * velocities; a unicycle's arc
-    with ``lookahead``, :attr:`Scenario.lookahead`)."""
+    with ``lookahead``, :attr:`Scenario.lookaheads`)."""
     records = read_ticks(path)
     if not records:
         raise ValueError(f"{path}: no tick records")
@@ -56,11 +57,11 @@ def read_trajectory(path: Path, *, dt: float, lookahead: float | None = None) ->
     return Trajectory.from_records(records, dt, lookahead)
 
 
-def _recorded_lookahead(path: Path) -> float:
+def _recorded_lookahead(path: Path) -> Lookahead:
     document = read_documents(path).get("scenario")
     if document is None:
         raise ValueError(f"{path}: tick records of unicycles but no scenario to say their l")
-    lookahead = recorded_scenario(document).lookahead
+    lookahead = recorded_scenario(document).lookaheads
     if lookahead is None:
         raise ValueError(f"{path}: tick records with headings from a scenario without unicycles")
     return lookahead

@@ -255,7 +255,7 @@ def _draw_formation(
             alpha=alpha,
             zorder=4,
         )
-    headings, lookahead = view.traj.headings, sc.lookahead
+    headings, lookahead = view.traj.headings, sc.lookaheads
     if headings is not None and lookahead is not None:  # unicycles: body and heading, 2-D
         axles = body_centres(full, headings[k], lookahead)
         for i in range(sc.n):

@@ -37,7 +37,7 @@ def load_view(path: Path) -> object:
     except ScenarioError as exc:
         raise PlotError(f"{path}: the recorded scenario does not load: {exc}") from None
     try:
-        traj = read_trajectory(path, dt=scenario.dt, lookahead=scenario.lookahead)
+        traj = read_trajectory(path, dt=scenario.dt, lookahead=scenario.lookaheads)
     except ValueError as exc:
         raise PlotError(str(exc)) from None
     clock = docs.get("summary", {}).get("clock", "unfinished")

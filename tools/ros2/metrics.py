@@ -39,7 +39,7 @@ class Metrics:
 
 def metrics(scenario: Scenario, records: Sequence[TickRecord]) -> Metrics:
     """The metrics of ``records`` (consecutive ticks, at least one)."""
-    s, traj = scenario, Trajectory.from_records(records, scenario.dt, scenario.lookahead)
+    s, traj = scenario, Trajectory.from_records(records, scenario.dt, scenario.lookaheads)
     rows = len(records)
     errors = np.zeros((rows, s.n))
     if s.n > 1:

@@ -32,6 +32,7 @@ from typing import Any, ClassVar, Protocol, cast
 import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as ros
 
+from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import TickRecord
 from shoal.tools.foxglove.msgs import RGBA, vec3s, yaw
 from shoal.tools.foxglove.scene import EDGE, MOVER, OBSTACLE, PILLAR_M, Layers, frame
@@ -121,8 +122,9 @@ def _tick(
     s: Scenario, layers: Layers, ns: int, r: TickRecord, m: Metrics, j: int
 ) -> Iterator[Message]:
     world = header(ns, WORLD)
-    if s.lookahead is not None and len(r.headings) == s.n:
-        yield from _unicycles(s, ns, r, world, s.lookahead)
+    ells = s.lookaheads
+    if ells is not None and len(r.headings) == s.n:
+        yield from _unicycles(s, ns, r, world, ells)
     else:
         points = [_point(p) for p in r.positions]
         yield Message(POSES, ns, PoseArray(header=world, poses=[_pose(p) for p in points]))
@@ -173,20 +175,28 @@ def _transforms(
     ]
 
 
-def _unicycles(s: Scenario, ns: int, r: TickRecord, world: Header, ell: float) -> Iterator[Message]:
+def _unicycles(
+    s: Scenario, ns: int, r: TickRecord, world: Header, ells: FloatArray
+) -> Iterator[Message]:
     """A unicycle as a ROS robot: its pose and frame at the axle, x along its heading (the point
     the laws move is l ahead on that axis), and the (v, ω) the world held over the tick as the
-    command in its own frame (world/unicycle.py)."""
+    command in its own frame (world/unicycle.py). A single integrator of a mixed formation
+    (l = 0) as elsewhere: its pose unturned at its point, its velocity as the command."""
     points = np.asarray(r.positions, dtype=np.float64)
     headings = np.asarray(r.headings, dtype=np.float64)
-    axles = [_point(c) for c in body_centres(points, headings, ell).tolist()]
-    turns = [Quaternion(**yaw(float(h))) for h in headings]
+    velocities = np.asarray(r.velocities, dtype=np.float64)
+    axles = [_point(c) for c in body_centres(points, headings, ells).tolist()]
+    turns = [Quaternion(**yaw(float(h))) if ell > 0 else IDENTITY
+             for h, ell in zip(headings, ells, strict=True)]  # fmt: skip
     poses = [_pose(c, q) for c, q in zip(axles, turns, strict=True)]
     yield Message(POSES, ns, PoseArray(header=world, poses=poses))
     yield Message(TF, ns, TFMessage(transforms=_transforms(world, axles, turns)))
-    speeds, rates = wheel_command(np.asarray(r.velocities, dtype=np.float64), headings, ell, s.dt)
+    speeds, rates = wheel_command(velocities, headings, ells, s.dt)
     for i, (v, w) in enumerate(zip(speeds.tolist(), rates.tolist(), strict=True)):
-        twist = Twist(linear=Vector3(x=v, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=w))
+        if ells[i] > 0:
+            twist = Twist(linear=Vector3(x=v, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=w))
+        else:
+            twist = Twist(linear=_vector(velocities[i]), angular=Vector3(x=0.0, y=0.0, z=0.0))
         yield Message(
             cmd_vel(i + 1), ns, TwistStamped(header=header(ns, frame(i + 1)), twist=twist)
         )
