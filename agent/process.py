@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from shoal.agent.controller import Controller
 from shoal.agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
 from shoal.agent.errors import ConfigError
+from shoal.agent.latency import Delayer
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
@@ -45,7 +46,9 @@ class AgentOptions:
     agent_id: int
     start_timeout: float = 60.0  # s to wait for the world and its configuration
     drop_rate: float = 0.0  # fault injection: fraction of incoming neighbour states thrown away
-    drop_seed: int = 0  # seeds the drops (with the agent id)
+    drop_seed: int = 0  # seeds the drops and the delays (with the agent id)
+    delay_ms: float = 0.0  # fault injection: outgoing states and commands held back this long
+    jitter_ms: float = 0.0  # … ± this much (uniform, ≤ delay_ms)
     max_age: int = MAX_AGE  # realtime: ticks after which a neighbour's state is not followed
 
 
@@ -106,7 +109,13 @@ class AgentNode(Declarations):
         lossy = self.clock == Clock.REALTIME  # bus/links.py: a cut neighbour must not stall us
         self.state_out = bus.publisher(k.state(me), lossy=lossy)
         self.command_out = bus.publisher(k.command(me), lossy=lossy)
-        self._held += [self.state_out, self.command_out]
+        try:  # closed before the publishers it sends on
+            self.late = Delayer(
+                options.delay_ms / 1e3, options.jitter_ms / 1e3, options.drop_seed, me
+            )
+        except ValueError as exc:
+            raise AgentAbort(f"agent {me}: {exc}") from None
+        self._held += [self.late, self.state_out, self.command_out]
         self.memory = self.controller.start()
         self.gone: set[int] = set()
         self.heard: dict[int, dict[int, AgentState]] = defaultdict(dict)
@@ -192,6 +201,7 @@ class AgentNode(Declarations):
                 "bad_messages": self.dropped,
                 "states_heard": d.offered,
                 "injected_drops": d.dropped,
+                "delayed_messages": self.late.held,
                 "age_p50": a.quantile(0.5),
                 "age_p99": a.quantile(0.99),
                 "age_max": max(a.histogram, default=None),
@@ -250,7 +260,7 @@ class AgentNode(Declarations):
             )
         self.tick = sensing.tick
         self.memory, state = self.controller.announce(self.memory, sensing)
-        self.state_out.put(codec.encode_state(state))
+        self.late.put(self.state_out, codec.encode_state(state))
         self.pending = (sensing, state)
 
     def _maybe_act(self) -> None:
@@ -271,7 +281,7 @@ class AgentNode(Declarations):
                 return
             use = {j: heard[j] for j in needed}
         self.memory, command = self.controller.act(self.memory, sensing, use)
-        self.command_out.put(codec.encode_report(state, command))
+        self.late.put(self.command_out, codec.encode_report(state, command))
         self.pending = None
         for tick in [t for t in self.heard if t <= sensing.tick]:
             del self.heard[tick]

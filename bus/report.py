@@ -21,6 +21,7 @@ FIGURES = (
     "bad_messages",  # malformed or impossible messages counted and dropped
     "states_heard",  # neighbour states offered to the fault injection
     "injected_drops",  # … and thrown away by it (--drop-rate)
+    "delayed_messages",  # outgoing states and commands held back (--delay-ms, agent/latency.py)
     "age_p50",  # ticks: how old the neighbour states it acted on were (realtime)
     "age_p99",
     "age_max",

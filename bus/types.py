@@ -29,6 +29,14 @@ class Clock(StrEnum):
     REALTIME = "realtime"  # ticks on the wall clock; a late command is held
 
 
+class Referee(StrEnum):
+    """What the world does with each agent's command before it moves the agent
+    (docs/safety.md, Realtime)."""
+
+    ON = "on"  # filters it again with every agent's true position at the tick it is applied
+    WATCH = "watch"  # applies it as the agent sent it, and counts what ON would have changed
+
+
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Gains:
     """Gains and thresholds of the paper's control laws, as a scenario gives them and as every

@@ -27,7 +27,7 @@ from shoal.bus.messages import AgentState, Command, Event, TickRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 from shoal.world.kinematics import actuate, integrate
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
@@ -49,6 +49,7 @@ class WorldOptions:
     clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
     stale_after: int = 5  # realtime: a command older than this many ticks is not applied
+    referee: Referee = Referee.ON  # WATCH: apply commands as sent, count what ON would change
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
 
@@ -146,6 +147,8 @@ class World(Declarations):
         recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids), lookahead=bodies)
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
+        watching = self.options.referee == Referee.WATCH
+        would, largest = 0, 0.0  # watching: what the referee would have changed, and by how much
         latest = self.latest
         clock = _Clock(
             realtime=self.options.clock == Clock.REALTIME, period=s.dt / self.options.speed
@@ -170,7 +173,14 @@ class World(Declarations):
             clock.stale_holds += len(stale)
             commanded = _commanded(reports, s.n, s.dim)
             velocities, fixed = actuate(sensings, commanded, params, s.dt)
-            corrected += fixed
+            if watching:  # the agents' own commands move them; the referee only looks
+                if fixed:
+                    would += fixed
+                    change = np.linalg.norm(velocities - commanded, axis=1).max()
+                    largest = max(largest, float(change))
+                velocities = commanded
+            else:
+                corrected += fixed
             row = _record(k, positions, velocities, reports, self.alive, crowd, headings)
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
@@ -187,6 +197,9 @@ class World(Declarations):
             **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
             "dropped_messages": self.dropped,
             "actuator_corrections": corrected,
+            "referee": str(self.options.referee),
+            "referee_would_correct": would if watching else None,
+            "referee_largest_change": largest if watching else None,
             "aborted": self.aborted,
             **self._agent_reports(),
         }

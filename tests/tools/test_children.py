@@ -10,7 +10,7 @@ from typing import Any
 import click
 import pytest
 
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 from shoal.tools.commands.agent import agent
 from shoal.tools.commands.logger import logger
 from shoal.tools.commands.router import router
@@ -30,6 +30,7 @@ SPECS: list[tuple[ChildSpec, click.Command]] = [
             expect=("logger", "monitor"),
             clock=Clock.REALTIME,
             speed=2.5,
+            referee=Referee.WATCH,
             start_timeout=12.0,
             multicast=True,
             **COMMON,

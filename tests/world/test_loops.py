@@ -6,62 +6,21 @@ and everything declared undeclared when a loop closes."""
 from __future__ import annotations
 
 import dataclasses
-import threading
 from typing import Any
 
+import numpy as np
 import pytest
+from memoryrun import RUN, recorded, run_in_memory, short
 
 from shoal.agent.process import AgentAbort, AgentNode, AgentOptions
 from shoal.bus import codec
 from shoal.bus.keys import Keys
 from shoal.bus.memory import MemoryBus, matches
 from shoal.bus.report import reports_in
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
 from shoal.world.process import World, WorldAbort, WorldOptions
-from shoal.world.scenario import Scenario
-from shoal.world.trajectory import Trajectory
-
-RUN = "memory"
-
-
-def short(name: str, duration: float) -> Scenario:
-    return dataclasses.replace(load_scenario(name), duration=duration)
-
-
-def run_in_memory(
-    scn: Scenario, bus: MemoryBus, before: Any = None
-) -> tuple[dict[str, Any], list[BaseException]]:
-    """The world and every agent as threads on ``bus``; ``before(world)`` runs once all are up."""
-    errors: list[BaseException] = []
-    world = World(scn, WorldOptions(run=RUN, clock=Clock.LOCKSTEP, start_timeout=30.0), bus)
-
-    def agent(i: int) -> None:
-        try:
-            with AgentNode(AgentOptions(run=RUN, agent_id=i, start_timeout=30.0), bus) as node:
-                node.run()
-        except BaseException as exc:  # reported to the test, not lost in a thread
-            errors.append(exc)
-
-    threads = [threading.Thread(target=agent, args=(i,), daemon=True) for i in range(1, scn.n + 1)]
-    for t in threads:
-        t.start()
-    with world:
-        world.wait_for_everyone()
-        if before is not None:
-            before(world)
-        summary = world.run()
-    for t in threads:
-        t.join(timeout=30.0)
-    assert not any(t.is_alive() for t in threads), "an agent did not exit with the world"
-    return summary, errors
-
-
-def recorded(bus: MemoryBus, dt: float) -> Trajectory:
-    tick_key = Keys(RUN).tick
-    records = [codec.decode_tick(p) for k, p in bus.published if k == tick_key]
-    return Trajectory.from_records(records, dt)
 
 
 @pytest.mark.parametrize(("name", "duration"), [("obstacles", 6.0), ("default", 4.0)])
@@ -94,6 +53,82 @@ def test_malformed_commands_are_counted_and_dropped_and_change_nothing() -> None
     assert not errors, errors
     assert summary["dropped_messages"] == 2
     assert recorded(bus, scn.dt).equals(simulate(scn))
+
+
+def test_watching_referee_changes_nothing_in_lockstep_and_counts_nothing() -> None:
+    """In lockstep every command was computed from the very sensing it is applied at, so the
+    referee has nothing to change: watching it gives the reference's bits and counts 0."""
+    scn = short("obstacles", 6.0)
+    bus = MemoryBus()
+    summary, errors = run_in_memory(scn, bus, referee=Referee.WATCH)
+    assert not errors, errors
+    assert recorded(bus, scn.dt).equals(simulate(scn))
+    assert summary["referee"] == "watch" and summary["referee_would_correct"] == 0
+    assert summary["actuator_corrections"] == 0
+
+
+def test_a_watching_referee_applies_every_command_as_the_agent_sent_it() -> None:
+    """Realtime at 20 times the scenario's pace, agents as threads of one process: commands
+    arrive late and are held. Watching, the world moves each agent with a command that agent
+    sent (or holds it still), bit for bit, however stale — and corrects none; the referee's
+    count is the number of agent-ticks where filtering again would have changed something."""
+    scn = short("obstacles", 2.0)
+    bus = MemoryBus()
+    summary, errors = run_in_memory(
+        scn, bus, clock=Clock.REALTIME, speed=20.0, referee=Referee.WATCH
+    )
+    assert not errors, errors
+    keys = Keys(RUN)
+    sent: dict[int, set[tuple[float, ...]]] = {i: {(0.0,) * scn.dim} for i in range(1, scn.n + 1)}
+    for key, payload in bus.published:
+        for i in sent:
+            if key == keys.command(i):
+                _state, command = codec.decode_report(payload)
+                sent[i].add(tuple(command.velocity))
+    records = [codec.decode_tick(p) for k, p in bus.published if k == keys.tick]
+    assert len(records) == scn.steps
+    for r in records:
+        for i, v in enumerate(r.velocities, start=1):
+            assert tuple(v) in sent[i], (r.tick, i)
+    assert summary["actuator_corrections"] == 0
+    assert isinstance(summary["referee_would_correct"], int)
+    assert summary["referee_would_correct"] >= 0 and summary["referee_largest_change"] >= 0
+
+
+def test_the_referee_keeps_a_rogue_agent_out_and_watching_counts_every_command_it_would_fix(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Agent 2 ignores its filter and drives straight at the nearest agent it senses at 3 m/s
+    (under the speed limit: only the filter's rows can stop it). With the referee on, the world
+    filters each of those commands again: no collision, each change counted as a correction.
+    Watching, it applies them as sent: agent 2 hits, and what the referee would have changed
+    is counted instead."""
+    from shoal.agent.controller import Controller
+    from shoal.bus.messages import Command
+
+    honest = Controller.act
+
+    def act(self: Controller, memory: Any, sensing: Any, heard: Any) -> Any:
+        memory, command = honest(self, memory, sensing, heard)
+        if command.agent_id != 2 or not sensing.agent_positions:
+            return memory, command
+        me = np.asarray(sensing.position)
+        others = np.asarray(sensing.agent_positions)
+        target = others[np.argmin(np.linalg.norm(others - me, axis=1))]
+        way = (target - me) / np.linalg.norm(target - me)
+        rogue = tuple((3.0 * way).tolist())  # m/s: faster than the formation, under the cap
+        return memory, Command(command.agent_id, command.tick, rogue, command.filtered)
+
+    monkeypatch.setattr(Controller, "act", act)
+    scn = dataclasses.replace(load_scenario("default"), duration=3.0)
+    on, errors = run_in_memory(scn, MemoryBus())
+    assert not errors, errors
+    watched, errors = run_in_memory(scn, MemoryBus(), referee=Referee.WATCH)
+    assert not errors, errors
+    assert on["collisions"] == 0 and on["actuator_corrections"] > 0
+    assert watched["collisions"] > 0 and watched["actuator_corrections"] == 0
+    assert watched["referee_would_correct"] > 0
+    assert 0 < watched["referee_largest_change"] <= 6.0  # at most reversing a 3 m/s command
 
 
 def codec_event() -> Any:

@@ -9,16 +9,27 @@ import math
 import tempfile
 import uuid
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.campaign.people import PeopleOptions, add_people
 from shoal.tools.log.reader import read_trajectory
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.simulator import simulate
 from shoal.world.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class Faults:
+    """What goes wrong on the bus in every swarm: each agent's outgoing messages held back
+    ``delay_ms`` ± ``jitter_ms``, ``drop_rate`` of the states it hears thrown away."""
+
+    delay_ms: float = 0.0
+    jitter_ms: float = 0.0
+    drop_rate: float = 0.0
 
 
 def run_swarms(
@@ -29,6 +40,8 @@ def run_swarms(
     *,
     clock: str,
     speed: float = 1.0,
+    referee: Referee = Referee.ON,
+    faults: Faults = Faults(),
     people: PeopleOptions | None = None,
     done: Callable[[dict[str, Any]], None] = lambda _row: None,
 ) -> list[dict[str, Any]]:
@@ -52,6 +65,11 @@ def run_swarms(
                     run_id=uuid.uuid4().hex[:8],
                     clock=Clock(clock),
                     speed=speed,
+                    referee=referee,
+                    delay_ms=faults.delay_ms,
+                    jitter_ms=faults.jitter_ms,
+                    drop_rate=faults.drop_rate,
+                    drop_seed=seed + k,
                 )
             )
             s = result.summary
@@ -64,6 +82,9 @@ def run_swarms(
                 "separation": field.separation,
                 "filter_activity": s["filter_activity"],
                 "actuator_corrections": s["actuator_corrections"],
+                "referee_would_correct": s.get("referee_would_correct"),
+                "referee_largest_change": s.get("referee_largest_change"),
+                "arrived": s.get("arrived"),
                 "missed_deadlines": s["missed_deadlines"],
                 "lost": list(result.lost),
                 "agent_at_fault": s.get("agent_at_fault", 0),
@@ -100,6 +121,12 @@ def swarm_report(rows: list[dict[str, Any]], clock: str) -> dict[str, Any]:
             r["min_interagent_distance"] < r["separation"] - 1e-9 for r in rows
         ),
         "actuator_corrections": sum(r["actuator_corrections"] for r in rows),
+        "referee": "watch" if any(r["referee_would_correct"] is not None for r in rows) else "on",
+        "referee_would_correct": sum(r["referee_would_correct"] or 0 for r in rows),
+        "referee_largest_change": max(
+            (r["referee_largest_change"] or 0.0 for r in rows), default=0.0
+        ),
+        "arrived": sum(bool(r["arrived"]) for r in rows),
         "missed_deadlines": sum(r["missed_deadlines"] for r in rows),
         "inexact": sum(r["exact"] is False for r in rows),
         "lost_agents": sum(len(r["lost"]) for r in rows),
@@ -115,8 +142,13 @@ def render_swarms(rep: dict[str, Any]) -> str:
         f"{rep['collided']} collided; min clearance {rep['min_clearance']:.3f} m "
         f"({rep['below_guard']} fields below ρ), min separation "
         f"{rep['min_interagent_distance']:.3f} m ({rep['below_separation']} below 2R); "
-        f"actuator corrections {rep['actuator_corrections']}, missed deadlines "
-        f"{rep['missed_deadlines']}"
+        + (
+            f"no referee (watching: it would have changed {rep['referee_would_correct']} "
+            f"commands, by up to {rep['referee_largest_change']:.3f} m/s)"
+            if rep["referee"] == "watch"
+            else f"actuator corrections {rep['actuator_corrections']}"
+        )
+        + f", missed deadlines {rep['missed_deadlines']}; {rep['arrived']} arrived"
         + (f", {rep['inexact']} not bit-exact" if rep["clock"] == Clock.LOCKSTEP else "")
         + (f", {rep['lost_agents']} agent processes lost" if rep["lost_agents"] else "")
         + (

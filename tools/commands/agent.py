@@ -28,6 +28,8 @@ def agent(**params: Any) -> None:
         start_timeout=spec.start_timeout,
         drop_rate=spec.drop_rate,
         drop_seed=spec.drop_seed,
+        delay_ms=spec.delay_ms,
+        jitter_ms=spec.jitter_ms,
     )
     with client_session(spec, agent_name(agent_id), f"agent {agent_id}") as session:
         try:

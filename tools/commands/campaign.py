@@ -14,6 +14,7 @@ from typing import Any, TypeVar
 import click
 
 from shoal.bus.runtime import exit_on_signals
+from shoal.bus.types import Referee
 from shoal.tools.campaign.cluster import ClusterError, run_on_dask
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
 from shoal.tools.campaign.hard import HARD_MODES
@@ -36,7 +37,7 @@ from shoal.tools.campaign.runner import (
     tasks,
 )
 from shoal.tools.campaign.runner import save_failures as write_failures
-from shoal.tools.campaign.swarms import render_swarms, run_swarms, swarm_report
+from shoal.tools.campaign.swarms import Faults, render_swarms, run_swarms, swarm_report
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
@@ -148,6 +149,23 @@ def _count(text: str) -> tuple[int, int]:
     help="--swarm: the clock (lockstep runs must also equal the reference bit for bit).",
 )
 @click.option(
+    "--swarm-faults",
+    metavar="DELAY_MS,JITTER_MS,DROP_RATE",
+    default="0,0,0",
+    show_default=True,
+    help="--swarm, realtime: every agent's outgoing messages held back DELAY_MS ± JITTER_MS "
+    "and DROP_RATE of the states it hears thrown away (shoal run's --delay-ms, --jitter-ms, "
+    "--drop-rate).",
+)
+@click.option(
+    "--swarm-referee",
+    type=click.Choice([str(r) for r in Referee]),
+    default=str(Referee.ON),
+    show_default=True,
+    help="--swarm: on, the world filters every command again with the true positions; watch, "
+    "it applies them as sent and counts what it would have changed (docs/safety.md).",
+)
+@click.option(
     "--save-failures",
     type=click.Path(file_okay=False, path_type=Path),
     help="Write every field that collided to this directory as scenario YAML.",
@@ -207,6 +225,8 @@ def campaign(
     safety: str,
     swarm: int | None,
     swarm_clock: str,
+    swarm_referee: str,
+    swarm_faults: str,
     save_failures: Path | None,
     save_lagging: Path | None,
     rerun: Path | None,
@@ -250,7 +270,9 @@ def campaign(
     if swarm is not None:
         if dask is not None:
             raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
-        _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd)
+        faults = _faults(swarm_faults, swarm_clock)
+        _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd, Referee(swarm_referee),
+                faults)  # fmt: skip
         return
     where = Workers(max(1, jobs), dask)
     if crowd is not None:
@@ -330,6 +352,29 @@ def _people(
         sys.exit(2)
 
 
+def _faults(text: str, clock: str) -> Faults:
+    """``--swarm-faults`` DELAY_MS,JITTER_MS,DROP_RATE, checked."""
+    parts = text.split(",")
+    try:
+        delay, jitter, drop = (float(p) for p in parts)
+    except ValueError:
+        raise click.BadParameter(
+            f"{text!r}: give three numbers, DELAY_MS,JITTER_MS,DROP_RATE",
+            param_hint="--swarm-faults",
+        ) from None
+    if not (0 <= jitter <= delay <= 10_000 and 0 <= drop < 1):
+        raise click.BadParameter(
+            f"{text!r}: need 0 ≤ JITTER_MS ≤ DELAY_MS ≤ 10000 and 0 ≤ DROP_RATE < 1",
+            param_hint="--swarm-faults",
+        )
+    if drop > 0 and clock != "realtime":
+        raise click.BadParameter(
+            "a dropped state would stall a lockstep run forever: DROP_RATE needs realtime",
+            param_hint="--swarm-faults",
+        )
+    return Faults(delay_ms=delay, jitter_ms=jitter, drop_rate=drop)
+
+
 def _swarms(
     scn: Scenario,
     seed: int,
@@ -338,12 +383,15 @@ def _swarms(
     clock: str,
     as_json: bool,
     crowd: PeopleOptions | None,
+    referee: Referee,
+    faults: Faults,
 ) -> None:
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
     with progress_bar(count, f"{count} swarms ({clock}) around {scn.name}") as bar:
         try:
             rows = run_swarms(
-                scn, seed, count, options, clock=clock, people=crowd,
+                scn, seed, count, options, clock=clock, people=crowd, referee=referee,
+                faults=faults,
                 done=lambda _r: bar.update(1),
             )  # fmt: skip
         except ChildFailed as exc:

@@ -86,6 +86,24 @@ def render_summary(summary: dict[str, Any]) -> str:
                 f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
             )
         )
+    if summary.get("referee") == "watch":
+        would = summary.get("referee_would_correct")
+        rows.append(
+            (
+                "referee",
+                f"watch: commands applied as the agents sent them; a referee would have changed "
+                f"{_fmt(would)} (largest change "
+                f"{_fmt(summary.get('referee_largest_change'), ' m/s', 3)})",
+            )
+        )
+    elif summary.get("clock") == "realtime":
+        rows.append(
+            (
+                "referee",
+                f"on: the world filtered every command again, and changed "
+                f"{_fmt(summary.get('actuator_corrections'))}",
+            )
+        )
     reports = reports_in(summary)
     if reports:
         rss = [r["peak_rss_kb"] for r in reports.values() if r.get("peak_rss_kb")]

@@ -15,7 +15,7 @@ import click
 from shoal.bus.errors import WireError
 from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 from shoal.tools.commands.options import (
     live_options,
     live_view,
@@ -25,7 +25,7 @@ from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
-from shoal.tools.procs.children import AgentSpec, check_run_id, click_options
+from shoal.tools.procs.children import AgentSpec, WorldSpec, check_run_id, click_options
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
@@ -101,7 +101,8 @@ def _where_the_log_is(out: Path) -> str:
     is_flag=True,
     help="With --live: start the run only once a viewer has subscribed to one of its topics.",
 )
-@click_options(AgentSpec, only=("drop_rate", "drop_seed"))
+@click_options(AgentSpec, only=("drop_rate", "drop_seed", "delay_ms", "jitter_ms"))
+@click_options(WorldSpec, only=("referee",))
 @click.option(
     "--secure",
     is_flag=True,
@@ -131,6 +132,9 @@ def run(
     live_wait: bool,
     drop_rate: float,
     drop_seed: int,
+    delay_ms: float,
+    jitter_ms: float,
+    referee: str,
     secure: bool,
     secure_dir: Path | None,
 ) -> None:
@@ -150,6 +154,12 @@ def run(
             "needs --clock realtime: a lockstep run waits for every state, so a dropped one "
             "would stall it forever",
             param_hint="--drop-rate",
+        )
+    if jitter_ms > delay_ms:
+        raise click.BadParameter(
+            f"{jitter_ms:g} ms is more than --delay-ms {delay_ms:g}: a message cannot go out "
+            "before it is sent",
+            param_hint="--jitter-ms",
         )
     if speed != 1.0 and clock != Clock.REALTIME:
         raise click.BadParameter(
@@ -173,11 +183,14 @@ def run(
         run_id=run_id,
         clock=Clock(clock),
         speed=speed,
+        referee=Referee(referee),
         connect=connect,
         start_timeout=start_timeout,
         progress=not as_json,
         drop_rate=drop_rate,
         drop_seed=drop_seed,
+        delay_ms=delay_ms,
+        jitter_ms=jitter_ms,
         secure=secure or secure_dir is not None,
         secure_dir=secure_dir,
         overwrite=force,

@@ -11,6 +11,7 @@ import click
 from shoal.bus.acl import WORLD
 from shoal.bus.runtime import exit_on_signals
 from shoal.bus.seam import ZenohBus
+from shoal.bus.types import Referee
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.children import WorldSpec, click_options
@@ -38,6 +39,7 @@ def world(as_json: bool, **params: Any) -> None:
         expect=spec.expect,
         clock=spec.clock,
         speed=spec.speed,
+        referee=Referee(spec.referee),
         start_timeout=spec.start_timeout,
     )
     with client_session(spec, WORLD, "world") as session:

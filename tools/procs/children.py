@@ -20,9 +20,10 @@ import click
 
 from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 
 F = TypeVar("F", bound=Callable[..., Any])
+_ENUMS: dict[str, type[enum.Enum]] = {"Clock": Clock, "Referee": Referee}  # fields' choices
 S = TypeVar("S", bound="ChildSpec")
 
 
@@ -62,8 +63,8 @@ class ChildSpec:
         values = {}
         for f in fields(cls):
             value = params[f.name]
-            if f.type == "Clock":
-                value = Clock(value)
+            if f.type in _ENUMS:
+                value = _ENUMS[f.type](value)
             values[f.name] = tuple(value) if isinstance(value, list) else value
         return cls(**values)
 
@@ -144,7 +145,7 @@ def click_options(spec: type[ChildSpec], only: tuple[str, ...] = ()) -> Callable
                 kwargs.setdefault("required", True)
             elif f.default is not None:
                 default = f.default
-                kwargs.setdefault("default", str(default) if f.type == "Clock" else default)
+                kwargs.setdefault("default", str(default) if f.type in _ENUMS else default)
             func = click.option(*f.metadata["decls"], f.name, **kwargs)(func)
         return func
 
@@ -243,6 +244,12 @@ class WorldSpec(ClientSpec):
         "--speed", default=1.0, type=click.FloatRange(min=0.01, max=100.0),
         help="realtime: simulated seconds per wall-clock second.",
     )  # fmt: skip
+    referee: Referee = option(
+        "--referee", default=Referee.ON, type=click.Choice([str(r) for r in Referee]),
+        help="on: the world filters every command again with every agent's true position at "
+        "the tick it is applied (a central, fresh view); watch: it applies each command as the "
+        "agent sent it and counts what `on` would have changed.",
+    )  # fmt: skip
     start_timeout: float = option(
         "--start-timeout", default=60.0, help="Seconds to wait for every agent."
     )
@@ -264,5 +271,15 @@ class AgentSpec(ClientSpec):
         "states (seeded, counted; shoal run totals them in its summary, `injected_drops`).",
     )  # fmt: skip
     drop_seed: int = option(
-        "--drop-seed", default=0, envvar="SHOAL_DROP_SEED", help="Seed of the injected drops."
-    )
+        "--drop-seed", default=0, envvar="SHOAL_DROP_SEED",
+        help="Seed of the injected drops and delays.",
+    )  # fmt: skip
+    delay_ms: float = option(
+        "--delay-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
+        help="Fault injection: hold every outgoing state and command back this many ms (a "
+        "lockstep run only waits longer and stays exact; in realtime commands arrive late).",
+    )  # fmt: skip
+    jitter_ms: float = option(
+        "--jitter-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
+        help="Fault injection: … plus or minus up to this many ms, uniform (at most --delay-ms).",
+    )  # fmt: skip

@@ -22,7 +22,7 @@ from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.report import reports_in
 from shoal.bus.runtime import ArrivalKind, Inbox, warn
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, Referee
 from shoal.tools.deploy.certs import make_material
 from shoal.tools.procs.children import AgentSpec, LoggerSpec, RouterSpec, WorldSpec
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
@@ -57,11 +57,14 @@ class RunPlan:
     run_id: str
     clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0
+    referee: Referee = Referee.ON  # the world's second filter, or WATCH: only counted
     connect: str | None = None  # a router's endpoint; None starts one
     start_timeout: float = 60.0
     progress: bool = False
     drop_rate: float = 0.0  # fault injection: passed to every agent (realtime only)
     drop_seed: int = 0
+    delay_ms: float = 0.0  # fault injection: every agent's outgoing messages held back …
+    jitter_ms: float = 0.0  # … ± this (agent/latency.py)
     secure: bool = False  # TLS, passwords and the router's ACL (docs/security.md)
     secure_dir: Path | None = None  # their material; None makes a fresh one in the run folder
     measure_cpu: bool = (
@@ -129,13 +132,15 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
         handed = _hand_over(plan.scenario, swarm.log_dir)
         world = WorldSpec(
             scenario=str(handed), name=plan.scenario.name, expect=("logger", "monitor"),
-            clock=plan.clock, speed=plan.speed, start_timeout=plan.start_timeout, **common,
+            clock=plan.clock, speed=plan.speed, referee=plan.referee,
+            start_timeout=plan.start_timeout, **common,
         )  # fmt: skip
         swarm.spawn("world", "world", world.argv())
         for i in range(1, plan.agents + 1):
             agent = AgentSpec(
-                agent_id=i, drop_rate=plan.drop_rate, drop_seed=plan.drop_seed, **common
-            )
+                agent_id=i, drop_rate=plan.drop_rate, drop_seed=plan.drop_seed,
+                delay_ms=plan.delay_ms, jitter_ms=plan.jitter_ms, **common,
+            )  # fmt: skip
             swarm.spawn(f"agent {i}", "agent", agent.argv())
         swarm.wait_ready(logger, plan.start_timeout)
         lost: list[str] = []
