@@ -18,12 +18,11 @@ import numpy as np
 from shoal.agent.controller import Controller
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import AgentState, picklable
-from shoal.world.kinematics import actuate, integrate
+from shoal.world.kinematics import actuate, move
 from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder, Trajectory
-from shoal.world.unicycle import step as unicycle_step
 
 Progress = Callable[[int], None]
 
@@ -97,11 +96,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
             commanded.append(command.velocity)
             filtered.append(command.filtered)
         velocities, _ = actuate(sensings, np.array(commanded), params, scenario.dt)
-        turned = None
-        if bodies is not None and headings is not None:
-            moved, turned = unicycle_step(positions, headings, velocities, bodies, scenario.dt)
-        else:
-            moved = integrate(positions, velocities, scenario.dt)
+        moved, turned = move(positions, headings, velocities, bodies, scenario.dt)
         ordered = tuple(states[i + 1] for i in range(n))
         yield Tick(
             k, positions, ordered, velocities, tuple(filtered), moved, crowd, headings, turned

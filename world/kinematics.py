@@ -11,10 +11,33 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Mover, Sensing
 from shoal.bus.safety import safe_velocity
 from shoal.bus.types import ControlParams, Vector
+from shoal.world.unicycle import step as unicycle_step
+
+
+def move(
+    positions: FloatArray,
+    headings: FloatArray | None,
+    velocities: FloatArray,
+    lookaheads: FloatArray | None,
+    dt: float,
+) -> tuple[FloatArray, FloatArray | None]:
+    """Every agent after one tick of ``velocities``, and its heading: single integrators by
+    :func:`integrate`; with ``lookaheads`` (unicycles, 0 for a mixed formation's single
+    integrators) along their arcs (world/unicycle.py). The world and the reference share it."""
+    if lookaheads is None or headings is None:
+        return integrate(positions, velocities, dt), None
+    return unicycle_step(positions, headings, velocities, lookaheads, dt)
+
+
+def largest_change(filtered: FloatArray, commanded: FloatArray) -> float:
+    """m/s: the most a filter changed any agent's command ((n, dim) both; 0 when none)."""
+    return float(np.linalg.norm(filtered - commanded, axis=1).max(initial=0.0))
 
 
 def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> FloatArray:

@@ -28,13 +28,12 @@ from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import Clock, Referee
-from shoal.world.kinematics import actuate, integrate
+from shoal.world.kinematics import actuate, largest_change, move
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder
-from shoal.world.unicycle import step as unicycle_step
 from shoal.world.watch import LeaderWatch
 
 
@@ -176,18 +175,14 @@ class World(Declarations):
             if watching:  # the agents' own commands move them; the referee only looks
                 if fixed:
                     would += fixed
-                    change = np.linalg.norm(velocities - commanded, axis=1).max()
-                    largest = max(largest, float(change))
+                    largest = max(largest, largest_change(velocities, commanded))
                 velocities = commanded
             else:
                 corrected += fixed
             row = _record(k, positions, velocities, reports, self.alive, crowd, headings)
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
-            if bodies is not None and headings is not None:
-                positions, headings = unicycle_step(positions, headings, velocities, bodies, s.dt)
-            else:
-                positions = integrate(positions, velocities, s.dt)
+            positions, headings = move(positions, headings, velocities, bodies, s.dt)
             crowd = obstacles.advance(crowd)
             if self.aborted is not None:
                 break

@@ -105,7 +105,9 @@ def _exact(log: Path, field: Scenario) -> bool:
         return False
 
 
-def swarm_report(rows: list[dict[str, Any]], clock: str) -> dict[str, Any]:
+def swarm_report(
+    rows: list[dict[str, Any]], clock: str, referee: Referee = Referee.ON
+) -> dict[str, Any]:
     """The swarm campaign in one JSON-able dict."""
     clear = [r["min_clearance"] for r in rows if r["min_clearance"] is not None]
     return {
@@ -121,7 +123,7 @@ def swarm_report(rows: list[dict[str, Any]], clock: str) -> dict[str, Any]:
             r["min_interagent_distance"] < r["separation"] - 1e-9 for r in rows
         ),
         "actuator_corrections": sum(r["actuator_corrections"] for r in rows),
-        "referee": "watch" if any(r["referee_would_correct"] is not None for r in rows) else "on",
+        "referee": str(referee),
         "referee_would_correct": sum(r["referee_would_correct"] or 0 for r in rows),
         "referee_largest_change": max(
             (r["referee_largest_change"] or 0.0 for r in rows), default=0.0

@@ -396,7 +396,7 @@ def _swarms(
             )  # fmt: skip
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
-    rep = swarm_report(rows, clock)
+    rep = swarm_report(rows, clock, referee)
     click.echo(json.dumps(_json_safe(rep)) if as_json else render_swarms(rep))
     if rep["collided"] or rep["below_guard"] or rep["below_separation"] or rep["inexact"]:
         sys.exit(1)  # (an agent-at-fault contact counts among the collisions)
