@@ -405,6 +405,8 @@ def safe_velocity(
     speed_limit: float,
     right_hand: bool = True,
     previous: Vector | None = None,
+    extra: Sequence[Row] = (),
+    agents: bool = True,
 ) -> Filtered:
     """The whole filter of one agent: cap the nominal at ``speed_limit`` (m/s), project it onto
     the rows of ``sensing``, and where that leaves the agent pressed against a row, project the
@@ -415,17 +417,24 @@ def safe_velocity(
     turns right of an agent in its way (:func:`sidestep`'s ``held``). ``active`` is True when
     the result differs from the nominal as given (the cap alone counts). The result always
     meets every row and is never faster than the capped nominal; a feasible nominal comes back
-    unchanged."""
+    unchanged.
+
+    ``extra`` rows are met as well (a robot's own layer adds its cells from a common snapshot,
+    world/onboard.py); ``agents`` False leaves out the rows of the agents in ``sensing``."""
     capped = cap_speed(nominal, speed_limit)
     reach = math.hypot(*capped) * dt
+    if not agents:
+        sensing = dataclasses.replace(sensing, agent_ids=(), agent_positions=())
     rows = rows_for(
         sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach, dt=dt
     )
+    rows += extra
     if any(r.bound > 0.0 for r in rows):  # a moving obstacle within reach of the guard
         every = rows_for(
             sensing, agent_id, margin=margin, half_separation=half_separation,
             reach=speed_limit * dt, dt=dt,
         )  # fmt: skip
+        every += extra
         out = evade(capped, every, dt, speed_limit)
         return dataclasses.replace(out, active=out.velocity != nominal)
     out = project(capped, rows, dt) if rows else Filtered(capped, active=False)

@@ -29,12 +29,22 @@ class Clock(StrEnum):
     REALTIME = "realtime"  # ticks on the wall clock; a late command is held
 
 
-class Referee(StrEnum):
-    """What the world does with each agent's command before it moves the agent
-    (docs/safety.md, Realtime)."""
+class SafetyLayer(StrEnum):
+    """What stands between each agent's command and its robot's motion (docs/safety.md,
+    Realtime and Without a referee). In lockstep every command is already safe for the tick it
+    is applied at, and the referee changes nothing."""
 
-    ON = "on"  # filters it again with every agent's true position at the tick it is applied
-    WATCH = "watch"  # applies it as the agent sent it, and counts what ON would have changed
+    REFEREE = "referee"  # filters it again with every agent's true position at that tick
+    ONBOARD = "onboard"  # each robot's own layer, knowing what it knows (world/onboard.py)
+    NONE = "none"  # applied as sent; the world counts what a referee would have changed
+
+    @classmethod
+    def of(cls, layer: SafetyLayer | None, clock: Clock) -> SafetyLayer:
+        """``layer``, or by default onboard in realtime and the referee in lockstep (where
+        every command is already safe for its tick and the referee changes nothing)."""
+        if layer is not None:
+            return layer
+        return cls.ONBOARD if clock == Clock.REALTIME else cls.REFEREE
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -27,11 +27,12 @@ from shoal.bus.messages import AgentState, Command, Event, TickRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.world.kinematics import actuate, largest_change, move
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
+from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder
 from shoal.world.watch import LeaderWatch
@@ -48,7 +49,9 @@ class WorldOptions:
     clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
     stale_after: int = 5  # realtime: a command older than this many ticks is not applied
-    referee: Referee = Referee.ON  # WATCH: apply commands as sent, count what ON would change
+    layer: SafetyLayer | None = None  # None: onboard in realtime, the referee in lockstep
+    link: Link | None = None  # onboard: the robots' own radio (ticks late, lost)
+    layer_epoch: float = 0.1  # onboard: s of simulated time between the robots' snapshots
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
 
@@ -109,6 +112,10 @@ class World(Declarations):
         self._held += [self.summary_out, self.scenario_out]
         self._held.append(bus.token(k.alive_world))
 
+    @property
+    def layer(self) -> SafetyLayer:
+        return SafetyLayer.of(self.options.layer, self.options.clock)
+
     # -- start ----------------------------------------------------------------------------------
 
     def wait_for_everyone(self) -> None:
@@ -146,8 +153,20 @@ class World(Declarations):
         recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids), lookahead=bodies)
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
-        watching = self.options.referee == Referee.WATCH
-        would, largest = 0, 0.0  # watching: what the referee would have changed, and by how much
+        layer = self.layer
+        epoch = epoch_ticks(self.options.layer_epoch, s.dt)
+        link = self.options.link or Link()
+        onboard = OnboardLayers(params, s.dt, epoch, link) if layer == SafetyLayer.ONBOARD else None
+        if onboard is not None and onboard.far > s.control.sensing_radius:
+            self._event(
+                0, 2, 0,
+                f"onboard layer: with a speed limit of {s.speed_limit:g} m/s any two robots "
+                f"within {onboard.far:.1f} m may meet within an epoch, so robots near each other "
+                "stand at every snapshot until it arrives; set control.speed_limit to your "
+                "robots' own (docs/safety.md, Without a referee)",
+            )  # fmt: skip
+        standing = 0  # onboard: robot-ticks held still waiting for a neighbour's snapshot
+        would, largest = 0, 0.0  # no referee: what it would have changed, and by how much
         latest = self.latest
         clock = _Clock(
             realtime=self.options.clock == Clock.REALTIME, period=s.dt / self.options.speed
@@ -171,14 +190,19 @@ class World(Declarations):
                 del reports[i]
             clock.stale_holds += len(stale)
             commanded = _commanded(reports, s.n, s.dim)
-            velocities, fixed = actuate(sensings, commanded, params, s.dt)
-            if watching:  # the agents' own commands move them; the referee only looks
+            if layer == SafetyLayer.REFEREE:
+                velocities, fixed = actuate(sensings, commanded, params, s.dt)
+                corrected += fixed
+            else:  # the robots move as their own layer (or nothing) lets them; a referee looks
+                velocities = commanded
+                if onboard is not None:
+                    held = onboard.act(k, positions, sensings, commanded)
+                    velocities, standing = held.velocities, standing + held.standing
+                    corrected += held.changed
+                fixed_velocities, fixed = actuate(sensings, velocities, params, s.dt)
                 if fixed:
                     would += fixed
-                    largest = max(largest, largest_change(velocities, commanded))
-                velocities = commanded
-            else:
-                corrected += fixed
+                    largest = max(largest, largest_change(fixed_velocities, velocities))
             row = _record(k, positions, velocities, reports, self.alive, crowd, headings)
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
@@ -192,9 +216,10 @@ class World(Declarations):
             **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
             "dropped_messages": self.dropped,
             "actuator_corrections": corrected,
-            "referee": str(self.options.referee),
-            "referee_would_correct": would if watching else None,
-            "referee_largest_change": largest if watching else None,
+            "safety_layer": str(layer),
+            "layer_standing": standing if onboard is not None else None,
+            "referee_would_correct": None if layer == SafetyLayer.REFEREE else would,
+            "referee_largest_change": None if layer == SafetyLayer.REFEREE else largest,
             "aborted": self.aborted,
             **self._agent_reports(),
         }

@@ -72,18 +72,21 @@ def test_campaign_swarm_runs_fields_as_processes_and_checks_them() -> None:
     assert row["min_clearance"] >= row["rho"] - 1e-9
 
 
-def test_a_watched_referee_swarm_campaign_counts_what_it_would_change() -> None:
-    """--swarm-referee watch: in lockstep the referee has nothing to change (0 counted) and the
-    run is still the reference's, bit for bit; the text says there was no referee."""
+def test_a_swarm_campaign_without_referee_counts_what_it_would_change() -> None:
+    """--swarm-safety-layer none: in lockstep the referee has nothing to change (0 counted) and
+    the run is still the reference's, bit for bit; the text says there was no referee."""
     args = ["campaign", "--swarm", "1", "--swarm-clock", "lockstep", "--length", "8",
-            "--swarm-referee", "watch"]  # fmt: skip
+            "--swarm-safety-layer", "none"]  # fmt: skip
     rep = json_of(run_cli([*args, "--json"]))
-    assert rep["referee"] == "watch" and rep["referee_would_correct"] == 0
+    assert rep["safety_layer"] == "none" and rep["referee_would_correct"] == 0
     assert rep["inexact"] == 0 and rep["collided"] == 0 and rep["arrived"] in (0, 1)
     (row,) = rep["rows"]
     assert row["exact"] is True and row["referee_would_correct"] == 0
     text = run_cli(args)
-    assert text.returncode == 0 and "no referee (watching: it would have changed 0" in text.stdout
+    assert (
+        text.returncode == 0
+        and "no safety layer (no referee: it would have changed 0" in text.stdout
+    )
 
 
 def test_campaign_swarm_with_people_equals_the_reference_bit_for_bit() -> None:

@@ -10,7 +10,7 @@ from typing import Any
 import click
 import pytest
 
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.commands.agent import agent
 from shoal.tools.commands.logger import logger
 from shoal.tools.commands.router import router
@@ -30,7 +30,12 @@ SPECS: list[tuple[ChildSpec, click.Command]] = [
             expect=("logger", "monitor"),
             clock=Clock.REALTIME,
             speed=2.5,
-            referee=Referee.WATCH,
+            safety_layer=SafetyLayer.NONE,
+            link_delay_ms=20.0,
+            link_jitter_ms=10.0,
+            link_drop_rate=0.05,
+            link_seed=4,
+            layer_epoch=0.2,
             start_timeout=12.0,
             multicast=True,
             **COMMON,

@@ -17,9 +17,10 @@ from shoal.bus import codec
 from shoal.bus.keys import Keys
 from shoal.bus.memory import MemoryBus, matches
 from shoal.bus.report import reports_in
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
+from shoal.world.onboard import Link
 from shoal.world.process import World, WorldAbort, WorldOptions
 
 
@@ -60,10 +61,10 @@ def test_watching_referee_changes_nothing_in_lockstep_and_counts_nothing() -> No
     referee has nothing to change: watching it gives the reference's bits and counts 0."""
     scn = short("obstacles", 6.0)
     bus = MemoryBus()
-    summary, errors = run_in_memory(scn, bus, referee=Referee.WATCH)
+    summary, errors = run_in_memory(scn, bus, layer=SafetyLayer.NONE)
     assert not errors, errors
     assert recorded(bus, scn.dt).equals(simulate(scn))
-    assert summary["referee"] == "watch" and summary["referee_would_correct"] == 0
+    assert summary["safety_layer"] == "none" and summary["referee_would_correct"] == 0
     assert summary["actuator_corrections"] == 0
 
 
@@ -75,7 +76,7 @@ def test_a_watching_referee_applies_every_command_as_the_agent_sent_it() -> None
     scn = short("obstacles", 2.0)
     bus = MemoryBus()
     summary, errors = run_in_memory(
-        scn, bus, clock=Clock.REALTIME, speed=20.0, referee=Referee.WATCH
+        scn, bus, clock=Clock.REALTIME, speed=20.0, layer=SafetyLayer.NONE
     )
     assert not errors, errors
     keys = Keys(RUN)
@@ -123,12 +124,20 @@ def test_the_referee_keeps_a_rogue_agent_out_and_watching_counts_every_command_i
     scn = dataclasses.replace(load_scenario("default"), duration=3.0)
     on, errors = run_in_memory(scn, MemoryBus())
     assert not errors, errors
-    watched, errors = run_in_memory(scn, MemoryBus(), referee=Referee.WATCH)
+    watched, errors = run_in_memory(scn, MemoryBus(), layer=SafetyLayer.NONE)
     assert not errors, errors
     assert on["collisions"] == 0 and on["actuator_corrections"] > 0
     assert watched["collisions"] > 0 and watched["actuator_corrections"] == 0
     assert watched["referee_would_correct"] > 0
     assert 0 < watched["referee_largest_change"] <= 6.0  # at most reversing a 3 m/s command
+    # Each robot's own layer, with neighbours known only from its radio's snapshots (late by
+    # 2 ± 1 ticks, 20 % lost): it keeps the rogue out without any referee.
+    link = Link(delay=2.0, jitter=1.0, drop_rate=0.2, seed=7)
+    onboard, errors = run_in_memory(scn, MemoryBus(), layer=SafetyLayer.ONBOARD, link=link)
+    assert not errors, errors
+    assert onboard["collisions"] == 0 and onboard["actuator_corrections"] > 0
+    assert onboard["min_interagent_distance"] >= scn.separation - 1e-9
+    assert onboard["layer_standing"] > 0 and onboard["referee_would_correct"] >= 0
 
 
 def codec_event() -> Any:

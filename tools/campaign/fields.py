@@ -120,6 +120,8 @@ class FieldOptions:
     kinematics : None keeps the base's; "unicycle" makes every agent a unicycle (the base's own
         figures, or :func:`unicycle_for` a base of single integrators), each starting at a
         heading drawn from the field's seed; "single" makes them single integrators.
+    speed_limit : m/s; replaces the base's ``control.speed_limit`` (a robot's own cap; the far
+        test of each robot's own safety layer has to believe it, docs/safety.md).
     """
 
     length: float = 14.0
@@ -135,6 +137,7 @@ class FieldOptions:
     safety: str | None = None
     boundary_layer: float = 0.0
     kinematics: str | None = None
+    speed_limit: float | None = None
 
 
 # -- what a field breaks ------------------------------------------------------------------------
@@ -352,6 +355,7 @@ def _skeleton(
             **{f.name: _plain(getattr(c, f.name)) for f in dataclasses.fields(c)},
             **({} if opts.sigma_max is None else {"sigma_max": opts.sigma_max}),
             **({} if opts.safety is None else {"safety": opts.safety}),
+            **({} if opts.speed_limit is None else {"speed_limit": opts.speed_limit}),
             **(
                 {"boundary_layer": round(opts.boundary_layer * c.beta * base.dt, 6)}
                 if opts.boundary_layer > 0

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.campaign.people import PeopleOptions, add_people
 from shoal.tools.log.reader import read_trajectory
@@ -40,7 +40,7 @@ def run_swarms(
     *,
     clock: str,
     speed: float = 1.0,
-    referee: Referee = Referee.ON,
+    layer: SafetyLayer | None = None,
     faults: Faults = Faults(),
     people: PeopleOptions | None = None,
     done: Callable[[dict[str, Any]], None] = lambda _row: None,
@@ -65,7 +65,7 @@ def run_swarms(
                     run_id=uuid.uuid4().hex[:8],
                     clock=Clock(clock),
                     speed=speed,
-                    referee=referee,
+                    safety_layer=layer,
                     delay_ms=faults.delay_ms,
                     jitter_ms=faults.jitter_ms,
                     drop_rate=faults.drop_rate,
@@ -82,6 +82,8 @@ def run_swarms(
                 "separation": field.separation,
                 "filter_activity": s["filter_activity"],
                 "actuator_corrections": s["actuator_corrections"],
+                "safety_layer": s.get("safety_layer"),
+                "layer_standing": s.get("layer_standing"),
                 "referee_would_correct": s.get("referee_would_correct"),
                 "referee_largest_change": s.get("referee_largest_change"),
                 "arrived": s.get("arrived"),
@@ -106,7 +108,7 @@ def _exact(log: Path, field: Scenario) -> bool:
 
 
 def swarm_report(
-    rows: list[dict[str, Any]], clock: str, referee: Referee = Referee.ON
+    rows: list[dict[str, Any]], clock: str, layer: SafetyLayer | None = None
 ) -> dict[str, Any]:
     """The swarm campaign in one JSON-able dict."""
     clear = [r["min_clearance"] for r in rows if r["min_clearance"] is not None]
@@ -123,7 +125,8 @@ def swarm_report(
             r["min_interagent_distance"] < r["separation"] - 1e-9 for r in rows
         ),
         "actuator_corrections": sum(r["actuator_corrections"] for r in rows),
-        "referee": str(referee),
+        "safety_layer": str(SafetyLayer.of(layer, Clock(clock))),
+        "layer_standing": sum(r.get("layer_standing") or 0 for r in rows),
         "referee_would_correct": sum(r["referee_would_correct"] or 0 for r in rows),
         "referee_largest_change": max(
             (r["referee_largest_change"] or 0.0 for r in rows), default=0.0
@@ -145,10 +148,16 @@ def render_swarms(rep: dict[str, Any]) -> str:
         f"({rep['below_guard']} fields below ρ), min separation "
         f"{rep['min_interagent_distance']:.3f} m ({rep['below_separation']} below 2R); "
         + (
-            f"no referee (watching: it would have changed {rep['referee_would_correct']} "
+            f"referee: {rep['actuator_corrections']} commands corrected"
+            if rep["safety_layer"] == SafetyLayer.REFEREE
+            else (
+                f"each robot's own layer: {rep['actuator_corrections']} commands changed, "
+                f"{rep['layer_standing']} robot-ticks standing for a snapshot"
+                if rep["safety_layer"] == SafetyLayer.ONBOARD
+                else "no safety layer"
+            )
+            + f" (no referee: it would have changed {rep['referee_would_correct']} "
             f"commands, by up to {rep['referee_largest_change']:.3f} m/s)"
-            if rep["referee"] == "watch"
-            else f"actuator corrections {rep['actuator_corrections']}"
         )
         + f", missed deadlines {rep['missed_deadlines']}; {rep['arrived']} arrived"
         + (f", {rep['inexact']} not bit-exact" if rep["clock"] == Clock.LOCKSTEP else "")

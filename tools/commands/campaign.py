@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 import click
 
 from shoal.bus.runtime import exit_on_signals
-from shoal.bus.types import Referee
+from shoal.bus.types import SafetyLayer
 from shoal.tools.campaign.cluster import ClusterError, run_on_dask
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
 from shoal.tools.campaign.hard import HARD_MODES
@@ -123,6 +123,12 @@ def _count(text: str) -> tuple[int, int]:
     "with --kind hard every field is drawn in 2-D) [default: the base's].",
 )
 @click.option(
+    "--speed-limit", type=click.FloatRange(min=0.0, min_open=True), metavar="M_S",
+    help="Every field's control.speed_limit, m/s: the robots' own cap [default: the base's, "
+    "or the largest the lockstep theorem admits]. The far test of each robot's own safety layer "
+    "believes it (docs/safety.md, Without a referee).",
+)  # fmt: skip
+@click.option(
     "--boundary-layer", default=0.0, show_default=True, type=click.FloatRange(min=0.0),
     metavar="K", help="Run every field with the optional boundary layer φ = K·β·dt, sat(e/φ) in "
     "place of the paper's sign(e) (0: the paper's law; docs/campaign.md, Arrival).",
@@ -158,12 +164,13 @@ def _count(text: str) -> tuple[int, int]:
     "--drop-rate).",
 )
 @click.option(
-    "--swarm-referee",
-    type=click.Choice([str(r) for r in Referee]),
-    default=str(Referee.ON),
-    show_default=True,
-    help="--swarm: on, the world filters every command again with the true positions; watch, "
-    "it applies them as sent and counts what it would have changed (docs/safety.md).",
+    "--swarm-safety-layer",
+    type=click.Choice([str(r) for r in SafetyLayer]),
+    default=None,
+    help="--swarm: onboard, each robot's own layer (its radio has --swarm-faults too); referee, "
+    "the world filters every command again with the true positions; none, applied as sent. "
+    "Without the referee, what it would have changed is counted (docs/safety.md). "
+    "[default: onboard in realtime, referee in lockstep]",
 )
 @click.option(
     "--save-failures",
@@ -222,10 +229,11 @@ def campaign(
     sigma_max: float | None,
     kinematics: str | None,
     boundary_layer: float,
+    speed_limit: float | None,
     safety: str,
     swarm: int | None,
     swarm_clock: str,
-    swarm_referee: str,
+    swarm_safety_layer: str | None,
     swarm_faults: str,
     save_failures: Path | None,
     save_lagging: Path | None,
@@ -251,7 +259,7 @@ def campaign(
         return
     options = FieldOptions(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max,
-        boundary_layer=boundary_layer, kinematics=kinematics,
+        boundary_layer=boundary_layer, kinematics=kinematics, speed_limit=speed_limit,
     )  # fmt: skip
     scn = load_for_cli(base or ("crossing" if people is not None else "obstacles"))
     crowd = None
@@ -271,8 +279,8 @@ def campaign(
         if dask is not None:
             raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
         faults = _faults(swarm_faults, swarm_clock)
-        _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd, Referee(swarm_referee),
-                faults)  # fmt: skip
+        layer = None if swarm_safety_layer is None else SafetyLayer(swarm_safety_layer)
+        _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd, layer, faults)
         return
     where = Workers(max(1, jobs), dask)
     if crowd is not None:
@@ -383,20 +391,20 @@ def _swarms(
     clock: str,
     as_json: bool,
     crowd: PeopleOptions | None,
-    referee: Referee,
+    layer: SafetyLayer | None,
     faults: Faults,
 ) -> None:
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
     with progress_bar(count, f"{count} swarms ({clock}) around {scn.name}") as bar:
         try:
             rows = run_swarms(
-                scn, seed, count, options, clock=clock, people=crowd, referee=referee,
+                scn, seed, count, options, clock=clock, people=crowd, layer=layer,
                 faults=faults,
                 done=lambda _r: bar.update(1),
             )  # fmt: skip
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
-    rep = swarm_report(rows, clock, referee)
+    rep = swarm_report(rows, clock, layer)
     click.echo(json.dumps(_json_safe(rep)) if as_json else render_swarms(rep))
     if rep["collided"] or rep["below_guard"] or rep["below_separation"] or rep["inexact"]:
         sys.exit(1)  # (an agent-at-fault contact counts among the collisions)

@@ -86,21 +86,28 @@ def render_summary(summary: dict[str, Any]) -> str:
                 f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
             )
         )
-    if summary.get("referee") == "watch":
+    layer = summary.get("safety_layer")
+    if layer in ("onboard", "none"):
         would = summary.get("referee_would_correct")
+        how = (
+            f"onboard: each robot's own layer, with its own position, sensor and radio; it "
+            f"changed {_fmt(summary.get('actuator_corrections'))} commands and stood "
+            f"{_fmt(summary.get('layer_standing'))} robot-ticks waiting for a snapshot"
+            if layer == "onboard"
+            else "none: commands applied as the agents sent them"
+        )
         rows.append(
             (
-                "referee",
-                f"watch: commands applied as the agents sent them; a referee would have changed "
-                f"{_fmt(would)} (largest change "
+                "safety layer",
+                f"{how}; a referee would have changed {_fmt(would)} (largest change "
                 f"{_fmt(summary.get('referee_largest_change'), ' m/s', 3)})",
             )
         )
     elif summary.get("clock") == "realtime":
         rows.append(
             (
-                "referee",
-                f"on: the world filtered every command again, and changed "
+                "safety layer",
+                f"referee: the world filtered every command again, and changed "
                 f"{_fmt(summary.get('actuator_corrections'))}",
             )
         )

@@ -15,7 +15,7 @@ import click
 from shoal.bus.errors import WireError
 from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.commands.options import (
     live_options,
     live_view,
@@ -102,7 +102,7 @@ def _where_the_log_is(out: Path) -> str:
     help="With --live: start the run only once a viewer has subscribed to one of its topics.",
 )
 @click_options(AgentSpec, only=("drop_rate", "drop_seed", "delay_ms", "jitter_ms"))
-@click_options(WorldSpec, only=("referee",))
+@click_options(WorldSpec, only=("safety_layer", "layer_epoch"))
 @click.option(
     "--secure",
     is_flag=True,
@@ -134,7 +134,8 @@ def run(
     drop_seed: int,
     delay_ms: float,
     jitter_ms: float,
-    referee: str,
+    safety_layer: str | None,
+    layer_epoch: float,
     secure: bool,
     secure_dir: Path | None,
 ) -> None:
@@ -183,7 +184,8 @@ def run(
         run_id=run_id,
         clock=Clock(clock),
         speed=speed,
-        referee=Referee(referee),
+        safety_layer=None if safety_layer is None else SafetyLayer(safety_layer),
+        layer_epoch=layer_epoch,
         connect=connect,
         start_timeout=start_timeout,
         progress=not as_json,

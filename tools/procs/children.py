@@ -20,10 +20,13 @@ import click
 
 from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 
 F = TypeVar("F", bound=Callable[..., Any])
-_ENUMS: dict[str, type[enum.Enum]] = {"Clock": Clock, "Referee": Referee}  # fields' choices
+_ENUMS: dict[str, type[enum.Enum]] = {  # fields' choices (None where the default is)
+    "Clock": Clock,
+    "SafetyLayer | None": SafetyLayer,
+}
 S = TypeVar("S", bound="ChildSpec")
 
 
@@ -63,7 +66,7 @@ class ChildSpec:
         values = {}
         for f in fields(cls):
             value = params[f.name]
-            if f.type in _ENUMS:
+            if f.type in _ENUMS and value is not None:
                 value = _ENUMS[f.type](value)
             values[f.name] = tuple(value) if isinstance(value, list) else value
         return cls(**values)
@@ -145,7 +148,9 @@ def click_options(spec: type[ChildSpec], only: tuple[str, ...] = ()) -> Callable
                 kwargs.setdefault("required", True)
             elif f.default is not None:
                 default = f.default
-                kwargs.setdefault("default", str(default) if f.type in _ENUMS else default)
+                kwargs.setdefault(
+                    "default", str(default) if f.type in _ENUMS and default is not None else default
+                )
             func = click.option(*f.metadata["decls"], f.name, **kwargs)(func)
         return func
 
@@ -244,11 +249,30 @@ class WorldSpec(ClientSpec):
         "--speed", default=1.0, type=click.FloatRange(min=0.01, max=100.0),
         help="realtime: simulated seconds per wall-clock second.",
     )  # fmt: skip
-    referee: Referee = option(
-        "--referee", default=Referee.ON, type=click.Choice([str(r) for r in Referee]),
-        help="on: the world filters every command again with every agent's true position at "
-        "the tick it is applied (a central, fresh view); watch: it applies each command as the "
-        "agent sent it and counts what `on` would have changed.",
+    safety_layer: SafetyLayer | None = option(
+        "--safety-layer", default=None, type=click.Choice([str(r) for r in SafetyLayer]),
+        help="What stands between a command and the robot's motion. onboard: each robot's own "
+        "layer, with its own position, sensor and radio (no referee); referee: the world "
+        "filters every command again with every robot's true position (a central, fresh view); "
+        "none: commands applied as sent. Without referee the summary counts what one would "
+        "have changed. [default: onboard in realtime, referee in lockstep]",
+    )  # fmt: skip
+    link_delay_ms: float = option(
+        "--link-delay-ms", default=0.0, type=click.FloatRange(min=0.0),
+        help="onboard: the robots' radio delivers each position this late (ms, wall clock)…",
+    )  # fmt: skip
+    link_jitter_ms: float = option(
+        "--link-jitter-ms", default=0.0, type=click.FloatRange(min=0.0),
+        help="… ± this (ms, uniform; at most the delay).",
+    )  # fmt: skip
+    link_drop_rate: float = option(
+        "--link-drop-rate", default=0.0, type=click.FloatRange(min=0.0, max=1.0, max_open=True),
+        help="onboard: the fraction of the robots' position broadcasts lost (seeded).",
+    )  # fmt: skip
+    link_seed: int = option("--link-seed", default=0, help="Seed of the radio's delays and losses.")
+    layer_epoch: float = option(
+        "--layer-epoch", default=0.1, type=click.FloatRange(min=0.0, min_open=True),
+        help="onboard: seconds of simulated time between the robots' common snapshots.",
     )  # fmt: skip
     start_timeout: float = option(
         "--start-timeout", default=60.0, help="Seconds to wait for every agent."

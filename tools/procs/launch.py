@@ -22,7 +22,7 @@ from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.report import reports_in
 from shoal.bus.runtime import ArrivalKind, Inbox, warn
-from shoal.bus.types import Clock, Referee
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.deploy.certs import make_material
 from shoal.tools.procs.children import AgentSpec, LoggerSpec, RouterSpec, WorldSpec
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
@@ -57,7 +57,8 @@ class RunPlan:
     run_id: str
     clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0
-    referee: Referee = Referee.ON  # the world's second filter, or WATCH: only counted
+    safety_layer: SafetyLayer | None = None  # None: onboard in realtime, referee in lockstep
+    layer_epoch: float = 0.1  # onboard: s between the robots' snapshots
     connect: str | None = None  # a router's endpoint; None starts one
     start_timeout: float = 60.0
     progress: bool = False
@@ -132,7 +133,9 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
         handed = _hand_over(plan.scenario, swarm.log_dir)
         world = WorldSpec(
             scenario=str(handed), name=plan.scenario.name, expect=("logger", "monitor"),
-            clock=plan.clock, speed=plan.speed, referee=plan.referee,
+            clock=plan.clock, speed=plan.speed, safety_layer=plan.safety_layer,
+            link_delay_ms=plan.delay_ms, link_jitter_ms=plan.jitter_ms,
+            link_drop_rate=plan.drop_rate, link_seed=plan.drop_seed, layer_epoch=plan.layer_epoch,
             start_timeout=plan.start_timeout, **common,
         )  # fmt: skip
         swarm.spawn("world", "world", world.argv())
