@@ -461,11 +461,13 @@ def _safety(s: Scenario) -> None:
     starts = s.initial_positions
     for i, j in itertools.combinations(range(s.n), 2):
         gap = norm(starts[i] - starts[j])
-        if gap < s.separation:
+        least = s.separation + 4.0 * s.position_error  # estimates 2e off: 2R + 2e between them
+        if gap < least:
+            extra = f" + 4 × position_error {s.position_error}" if s.position_error else ""
             raise ScenarioError(
                 _start_field(s, j),
                 f"agents {i + 1} and {j + 1} start {gap:.3g} m apart, closer than the "
-                f"separation {s.separation} m the safety filter keeps",
+                f"separation {s.separation} m{extra} the safety filter keeps",
             )
 
 

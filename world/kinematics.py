@@ -86,6 +86,40 @@ def sense_all(
     return out
 
 
+def estimated(sensings: Sequence[Sensing], biases: FloatArray) -> list[Sensing]:
+    """Every agent's sensing as its robot knows it when its position estimate is off by its row
+    of ``biases`` (n, dim), m: its own position and the other agents' (as they broadcast their
+    estimates) are estimates; obstacles and people, which a range sensor measures relative to
+    the robot, keep their true offsets from it, so they move with its error. What is sensed at
+    all is decided by the true distances (the sensor's range)."""
+    rows: list[Vector] = [tuple(b) for b in biases.tolist()]
+
+    def shift(v: Vector, b: Vector) -> Vector:
+        return tuple([x + y for x, y in zip(v, b, strict=True)])
+
+    out = []
+    for i, s in enumerate(sensings):
+        b = rows[i]
+        pairs = zip(s.agent_ids, s.agent_positions, strict=True)
+        people = [
+            Mover(m.obstacle_id, shift(m.centre, b), m.radius, m.velocity, m.speed_cap)
+            for m in s.movers
+        ]
+        out.append(
+            Sensing(
+                tick=s.tick,
+                position=shift(s.position, b),
+                obstacle_ids=s.obstacle_ids,
+                obstacle_centres=tuple([shift(c, b) for c in s.obstacle_centres]),
+                obstacle_radii=s.obstacle_radii,
+                agent_ids=s.agent_ids,
+                agent_positions=tuple([shift(p, rows[q - 1]) for q, p in pairs]),
+                movers=tuple(people),
+            )
+        )
+    return out
+
+
 def _within(a: Vector, b: Vector, radius: float) -> bool:
     """‖a − b‖ ≤ radius, the norm summed in numpy's order (sqrt of Σ (a_k − b_k)², k = 0, 1, …):
     the bits of geometry's ``norm(sub(a, b))``, which takes arrays too and, compiled, made

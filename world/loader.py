@@ -31,6 +31,7 @@ from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario, Unicycl
 _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
     "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape", "kinematics",
+    "position_error",
 }  # fmt: skip
 # No length, time or gain in a scenario is larger: squares and sums stay far from overflow.
 _LARGEST = 1e9
@@ -166,6 +167,7 @@ def scenario_from_dict(
         tolerance_factor=_positive(data.get("tolerance_factor", 10.0), "tolerance_factor"),
         source=source,
         unicycle=unicycle,
+        position_error=_non_negative(data.get("position_error", 0.0), "position_error"),
     )
     check_assumptions(scenario)
     return scenario

@@ -14,7 +14,7 @@ import numpy as np
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Mover, Sensing
 from shoal.bus.types import Vector
-from shoal.world.kinematics import sense_all
+from shoal.world.kinematics import estimated, sense_all
 from shoal.world.movers import Body, Motion, MoverState, advance, plan, start
 from shoal.world.scenario import Scenario
 
@@ -33,6 +33,7 @@ class Obstacles:
     agent_radius: float
     standing: tuple[Body, ...]
     dt: float
+    biases: FloatArray | None = None  # (n, dim): each robot's position estimate's error
 
     @classmethod
     def of(cls, s: Scenario) -> Obstacles:
@@ -47,6 +48,7 @@ class Obstacles:
             agent_radius=s.agent_radius,
             standing=tuple(Body(o.centre, o.radius, wall=True) for o in s.standing),
             dt=s.dt,
+            biases=s.position_biases,
         )
 
     @property
@@ -72,12 +74,15 @@ class Obstacles:
     ) -> tuple[MoverState, list[Sensing]]:
         """The start of a tick, for the world and the reference alike: the moving obstacles'
         velocities over it (:meth:`plan`), then every agent's sensing of the standing and the
-        moving obstacles and the other agents."""
+        moving obstacles and the other agents — as the robot knows them, with ``biases``
+        (:func:`~shoal.world.kinematics.estimated`)."""
         state = self.plan(state, positions)
         sensings = sense_all(
             tick, positions, self.centres, self.radii, sensing_radius,
             ids=self.ids, movers=self.sensed(state),
         )  # fmt: skip
+        if self.biases is not None:
+            sensings = estimated(sensings, self.biases)
         return state, sensings
 
     def advance(self, state: MoverState) -> MoverState:

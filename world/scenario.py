@@ -8,6 +8,7 @@ ids are 1..n; agent 1 is the leader and its offset is zero.
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -130,6 +131,26 @@ class Scenario:
     tolerance_factor: float  # formation converged when every error ≤ this × β·dt
     source: str = ""  # the YAML text it was loaded from
     unicycle: Unicycle | None = None  # None: single integrators (the paper's model)
+    position_error: float = 0.0  # m: e, the bound of every robot's own position estimate's error
+
+    @cached_property
+    def position_biases(self) -> FloatArray | None:
+        """(n, dim) each robot's estimate's error b_i, m: constant over the run (a drift-free
+        odometry from a bounded fix, docs/safety.md, Position error), uniform in the ball of
+        radius ``position_error``, drawn from the scenario's seed; None when it is 0."""
+        e = self.position_error
+        if e == 0.0:
+            return None
+        rng = np.random.default_rng([self.seed, zlib.crc32(b"position-error")])
+        way = rng.normal(size=(self.n, self.dim))
+        way /= np.linalg.norm(way, axis=1, keepdims=True)
+        return way * (e * rng.random((self.n, 1)) ** (1.0 / self.dim))
+
+    @property
+    def cell_separation(self) -> float:
+        """m: what the safety filter keeps between the robots' *estimates*, 2R + 2e, so that
+        the robots themselves keep 2R (docs/safety.md, Position error)."""
+        return self.separation + 2.0 * self.position_error
 
     @property
     def n(self) -> int:
@@ -256,7 +277,7 @@ class Scenario:
         reach = c.sensing_radius - r_max - c.safety_margin
         if self.u_max > 0.0:
             reach -= self.u_max * self.dt
-        return min(reach, (c.sensing_radius - self.separation) / 2)
+        return min(reach, (c.sensing_radius - self.cell_separation) / 2)
 
     @property
     def speed_limit(self) -> float:
@@ -280,7 +301,7 @@ class Scenario:
             **gains_of(self.control),
             rounds=self.epoch_ticks(clock),
             speed_limit=self.speed_limit,
-            separation=self.separation,
+            separation=self.cell_separation,
         )
 
     def agent_config(self, agent_id: int, clock: Clock = Clock.LOCKSTEP) -> AgentConfig:
