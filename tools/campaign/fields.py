@@ -120,6 +120,8 @@ class FieldOptions:
     kinematics : None keeps the base's; "unicycle" makes every agent a unicycle (the base's own
         figures, or :func:`unicycle_for` a base of single integrators), each starting at a
         heading drawn from the field's seed; "single" makes them single integrators.
+    position_error : m; every field's ``position_error`` (each robot's estimate off by up to
+        it, docs/safety.md, Position error); None keeps the base's.
     speed_limit : m/s; replaces the base's ``control.speed_limit`` (a robot's own cap; the far
         test of each robot's own safety layer has to believe it, docs/safety.md).
     """
@@ -138,6 +140,7 @@ class FieldOptions:
     boundary_layer: float = 0.0
     kinematics: str | None = None
     speed_limit: float | None = None
+    position_error: float | None = None
 
 
 # -- what a field breaks ------------------------------------------------------------------------
@@ -365,6 +368,11 @@ def _skeleton(
         "graph": {"directed": base.directed, "edges": [list(e) for e in base.edges]},
         "agents": [{"offset": list(a.offset)} for a in base.agents],
         "initial_noise": min(opts.initial_noise, _noise_room(base)),
+        **(
+            {"position_error": opts.position_error}
+            if opts.position_error is not None
+            else ({"position_error": base.position_error} if base.position_error else {})
+        ),
         **_kinematics(base, seed, opts),
         "leader": _path_data(path),
         "reshape": [

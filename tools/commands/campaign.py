@@ -129,6 +129,11 @@ def _count(text: str) -> tuple[int, int]:
     "believes it (docs/safety.md, Without a referee).",
 )  # fmt: skip
 @click.option(
+    "--position-error", type=click.FloatRange(min=0.0), metavar="M",
+    help="Every field's position_error, m: each robot's estimate off by up to this "
+    "(docs/safety.md, Position error) [default: the base's].",
+)  # fmt: skip
+@click.option(
     "--boundary-layer", default=0.0, show_default=True, type=click.FloatRange(min=0.0),
     metavar="K", help="Run every field with the optional boundary layer φ = K·β·dt, sat(e/φ) in "
     "place of the paper's sign(e) (0: the paper's law; docs/campaign.md, Arrival).",
@@ -230,6 +235,7 @@ def campaign(
     kinematics: str | None,
     boundary_layer: float,
     speed_limit: float | None,
+    position_error: float | None,
     safety: str,
     swarm: int | None,
     swarm_clock: str,
@@ -260,6 +266,7 @@ def campaign(
     options = FieldOptions(
         length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max,
         boundary_layer=boundary_layer, kinematics=kinematics, speed_limit=speed_limit,
+        position_error=position_error,
     )  # fmt: skip
     scn = load_for_cli(base or ("crossing" if people is not None else "obstacles"))
     crowd = None
