@@ -225,12 +225,11 @@ class OnboardLayers:
                 out.append(plane_row(now, own, other, self.half, lower=i < q))
         return out, leeway
 
-    def act(
-        self, k: int, positions: FloatArray, sensings: Sequence[Sensing], commanded: FloatArray
-    ) -> Held:
+    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> Held:
         """Every robot's velocity for tick k: its command (``commanded``, (n, dim) m/s) through
-        its own layer. ``positions`` (n, dim): where the robots are (believe they are) at k."""
-        rows = [tuple(r) for r in positions.tolist()]
+        its own layer, which knows where its robot is from its own sensing (an estimate, with a
+        scenario's position error: world.kinematics.estimated) and broadcasts that."""
+        rows = [s.position for s in sensings]
         self.history[k] = rows
         if k % self.epoch == 0 or not self.snapshot:
             self._begin(k, rows)

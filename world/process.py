@@ -165,7 +165,6 @@ class World(Declarations):
                 "stand at every snapshot until it arrives; set control.speed_limit to your "
                 "robots' own (docs/safety.md, Without a referee)",
             )  # fmt: skip
-        biases = s.position_biases  # what each robot believes is where it is, less the truth
         standing = 0  # onboard: robot-ticks held still waiting for a neighbour's snapshot
         would, largest = 0, 0.0  # no referee: what it would have changed, and by how much
         latest = self.latest
@@ -197,8 +196,7 @@ class World(Declarations):
             else:  # the robots move as their own layer (or nothing) lets them; a referee looks
                 velocities = commanded
                 if onboard is not None:
-                    believed = positions if biases is None else positions + biases
-                    held = onboard.act(k, believed, sensings, commanded)
+                    held = onboard.act(k, sensings, commanded)
                     velocities, standing = held.velocities, standing + held.standing
                     corrected += held.changed
                 fixed_velocities, fixed = actuate(sensings, velocities, params, s.dt)

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from shoal.bus.safety import Row
 from shoal.bus.types import ControlParams, Vector
-from shoal.world.kinematics import sense_all
+from shoal.world.kinematics import estimated, sense_all
 from shoal.world.loader import load_scenario
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks, plane_row
 
@@ -100,8 +100,8 @@ def swarm(
                 way = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1)])
             size = float(np.linalg.norm(way))
             wanted[i] = way / size * VMAX * rng.choice([0.5, 1.0, 1.0]) if size > 0 else 0.0
-        sensings = sense_all(k, pos, CENTRE, RADIUS, 50.0)
-        held = layer.act(k, pos + bias, sensings, wanted)
+        sensings = estimated(sense_all(k, pos, CENTRE, RADIUS, 50.0), bias)
+        held = layer.act(k, sensings, wanted)
         assert np.all(np.linalg.norm(held.velocities, axis=1) <= VMAX * (1 + 1e-9))
         nxt = pos + DT * held.velocities
         for a in range(n):

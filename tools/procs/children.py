@@ -148,9 +148,7 @@ def click_options(spec: type[ChildSpec], only: tuple[str, ...] = ()) -> Callable
                 kwargs.setdefault("required", True)
             elif f.default is not None:
                 default = f.default
-                kwargs.setdefault(
-                    "default", str(default) if f.type in _ENUMS and default is not None else default
-                )
+                kwargs.setdefault("default", str(default) if f.type in _ENUMS else default)
             func = click.option(*f.metadata["decls"], f.name, **kwargs)(func)
         return func
 
