@@ -60,6 +60,35 @@ def test_a_realtime_swarm_keeps_every_guard_and_separation(tmp_path: Path) -> No
     assert got["min_interagent_distance"] >= scn.separation - 1e-9
 
 
+def test_messages_later_than_the_watchdog_allows_only_hold_robots_still(tmp_path: Path) -> None:
+    """Issue 32, the delay bound exceeded on purpose: every agent's states and commands
+    50 ± 30 ms late against a watchdog that applies nothing older than 5 ticks (50 ms at
+    dt 0.01 s, speed 1), the robots' own radio as late, 5 % lost, each robot's estimate off by
+    up to 0.05 m, no referee. Many commands arrive too late to be applied, so robots are held
+    (``stale_holds``) and stand for snapshots (``layer_standing``), but the guard and the
+    separation still hold exactly: the theorem (docs/safety.md, Without a referee) assumes no
+    delay bound, the bound only decides how long robots wait."""
+    opts = FieldOptions(length=8.0, tail=1.0, speed_limit=4.0, position_error=0.05)
+    field = make_field(load_scenario("obstacles"), 6, options=opts)
+    path = tmp_path / f"{field.name}.yaml"
+    path.write_text(field.source, encoding="utf-8")
+    scn = parse_scenario(field.source)
+    proc = run_cli(["run", str(path), "--clock", "realtime", "--speed", "1", "--json",
+                    "--delay-ms", "50", "--jitter-ms", "30", "--drop-rate", "0.05",
+                    "--no-foxglove", "--out", str(tmp_path / "late.mcap")])  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    got = json_of(proc)
+    assert got["safety_layer"] == "onboard"
+    assert got["stale_holds"] > 0 and got["layer_standing"] > 0
+    assert got["collisions"] == 0
+    assert got["min_clearance"] >= scn.control.safety_margin - 1e-9
+    assert got["min_interagent_distance"] >= scn.separation - 1e-9
+    print(f"\nlate beyond the watchdog: {got['stale_holds']} stale holds, "
+          f"{got['layer_standing']} robot-ticks standing, clearance "
+          f"{got['min_clearance']:.7f} m, separation {got['min_interagent_distance']:.4f} m, "
+          f"arrived {got['arrived']}")  # fmt: skip
+
+
 def test_campaign_swarm_runs_fields_as_processes_and_checks_them() -> None:
     proc = run_cli(["campaign", "--swarm", "1", "--swarm-clock", "lockstep", "--length", "8",
                     "--json"])  # fmt: skip
@@ -70,6 +99,9 @@ def test_campaign_swarm_runs_fields_as_processes_and_checks_them() -> None:
     (row,) = rep["rows"]
     assert row["exact"] is True and row["name"] == "obstacles-inside-0"
     assert row["min_clearance"] >= row["rho"] - 1e-9
+    # time to goal: the one field's own, when it arrived
+    assert rep["arrival_time_p50"] == (row["arrival_time"] if row["arrived"] else None)
+    assert row["arrival_time"] is None or row["arrival_time"] > 0
 
 
 def test_a_swarm_campaign_without_referee_counts_what_it_would_change() -> None:

@@ -6,9 +6,10 @@ world's safety layer, not the reference, is what keeps it safe)."""
 from __future__ import annotations
 
 import math
+import statistics
 import tempfile
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -87,6 +88,8 @@ def run_swarms(
                 "referee_would_correct": s.get("referee_would_correct"),
                 "referee_largest_change": s.get("referee_largest_change"),
                 "arrived": s.get("arrived"),
+                "arrival_time": s.get("arrival_time"),
+                "not_arrived": s.get("not_arrived"),  # why not: "out of time", "deadlock", …
                 "missed_deadlines": s["missed_deadlines"],
                 "lost": list(result.lost),
                 "agent_at_fault": s.get("agent_at_fault", 0),
@@ -132,6 +135,7 @@ def swarm_report(
             (r["referee_largest_change"] or 0.0 for r in rows), default=0.0
         ),
         "arrived": sum(bool(r["arrived"]) for r in rows),
+        "arrival_time_p50": _median(r.get("arrival_time") for r in rows if r["arrived"]),
         "missed_deadlines": sum(r["missed_deadlines"] for r in rows),
         "inexact": sum(r["exact"] is False for r in rows),
         "lost_agents": sum(len(r["lost"]) for r in rows),
@@ -139,6 +143,11 @@ def swarm_report(
         "obstacle_at_fault": sum(r["obstacle_at_fault"] for r in rows),
         "rows": rows,
     }
+
+
+def _median(values: Iterable[float | None]) -> float | None:
+    known = [v for v in values if v is not None]
+    return statistics.median(known) if known else None
 
 
 def render_swarms(rep: dict[str, Any]) -> str:
@@ -160,6 +169,11 @@ def render_swarms(rep: dict[str, Any]) -> str:
             f"commands, by up to {rep['referee_largest_change']:.3f} m/s)"
         )
         + f", missed deadlines {rep['missed_deadlines']}; {rep['arrived']} arrived"
+        + (
+            f" (median time to goal {rep['arrival_time_p50']:.2f} s)"
+            if rep.get("arrival_time_p50") is not None
+            else ""
+        )
         + (f", {rep['inexact']} not bit-exact" if rep["clock"] == Clock.LOCKSTEP else "")
         + (f", {rep['lost_agents']} agent processes lost" if rep["lost_agents"] else "")
         + (
