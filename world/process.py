@@ -33,6 +33,7 @@ from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
+from shoal.world.plant import Plant, PlantError
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder
 from shoal.world.watch import LeaderWatch
@@ -54,6 +55,7 @@ class WorldOptions:
     layer_epoch: float = 0.1  # onboard: s of simulated time between the robots' snapshots
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
+    plant: Plant | None = None  # real robots in place of the kinematics (world/plant.py)
 
 
 class World(Declarations):
@@ -94,6 +96,8 @@ class World(Declarations):
                 )
             return Answer(self.keys.config(i), configs[i])
 
+        if options.plant is not None and (options.clock != Clock.REALTIME or options.speed != 1):
+            raise WorldAbort("robots move on the wall clock: drive them in realtime at speed 1")
         k = self.keys
         if bus.present(k.alive_world, timeout=1.0):
             raise WorldAbort(f"another world already serves run {options.run!r}")
@@ -134,6 +138,11 @@ class World(Declarations):
                 self._drop(f"{arrival.key}: a command before tick 0")
             else:
                 self._note_presence(arrival)
+        if self.options.plant is not None:
+            try:
+                self.options.plant.wait_ready(max(deadline - time.monotonic(), 1.0))
+            except PlantError as exc:
+                raise WorldAbort(str(exc)) from None
         self.scenario_out.put(
             codec.encode_document(
                 "scenario", {"name": self.scenario.name, "yaml": self.scenario.source}
@@ -143,13 +152,25 @@ class World(Declarations):
     # -- ticks ----------------------------------------------------------------------------------
 
     def run(self) -> dict[str, Any]:
-        """Run every tick; returns (and publishes) the summary with the run's timing."""
+        """Run every tick; returns (and publishes) the summary with the run's timing. Real
+        robots (``options.plant``) are stopped however the run ends: finished, the leader lost,
+        an error, Ctrl-C."""
+        plant = self.options.plant
+        try:
+            return self._run(plant)
+        finally:
+            if plant is not None:
+                plant.stop()
+
+    def _run(self, plant: Plant | None) -> dict[str, Any]:
         s = self.scenario
         obstacles = Obstacles.of(s)
         crowd = obstacles.start(s)
         positions = s.initial_positions
         bodies = s.lookaheads  # unicycles: l per agent (0: a single integrator of a mixed swarm)
         headings = s.initial_headings if bodies is not None else None
+        pose_holds = 0  # robot-ticks held still because the robot's own pose was too old
+        stale_robots: frozenset[int] = frozenset()
         recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids), lookahead=bodies)
         params = s.params()
         corrected = 0  # agent-ticks whose command the actuator's safety layer changed
@@ -173,6 +194,12 @@ class World(Declarations):
         )
         watch = LeaderWatch(s)
         for k in range(s.steps):
+            if plant is not None:  # real robots: where they report they are, not integrated
+                seen = plant.observe()
+                positions, headings = seen.positions, seen.headings
+                for i in sorted(seen.stale - stale_robots):
+                    self._event(k, 3, i, f"robot {i}'s pose is stale; held still until it reports")
+                stale_robots = seen.stale
             said = watch.update(k, positions[0])
             if said is not None:
                 self._event(k, 3 if watch.trapped else 2, 1, said)
@@ -189,6 +216,9 @@ class World(Declarations):
             for i in stale:  # a watchdog, as on a real robot: no fresh command, no motion
                 del reports[i]
             clock.stale_holds += len(stale)
+            for i in stale_robots:
+                reports.pop(i, None)
+            pose_holds += len(stale_robots)
             commanded = _commanded(reports, s.n, s.dim)
             if layer == SafetyLayer.REFEREE:
                 velocities, fixed = actuate(sensings, commanded, params, s.dt)
@@ -203,13 +233,22 @@ class World(Declarations):
                 if fixed:
                     would += fixed
                     largest = max(largest, largest_change(fixed_velocities, velocities))
+            for i in stale_robots:  # whatever a layer made of it: a robot not seen stands
+                velocities[i - 1] = 0.0
             row = _record(k, positions, velocities, reports, self.alive, crowd, headings)
             self.tick_out.put(codec.encode_tick(row))
             recorder.record(row)
-            positions, headings = move(positions, headings, velocities, bodies, s.dt)
+            if plant is None:
+                positions, headings = move(positions, headings, velocities, bodies, s.dt)
+            else:
+                plant.send(velocities, headings)
             crowd = obstacles.advance(crowd)
             if self.aborted is not None:
                 break
+        if plant is not None:
+            plant.stop()  # at once: the summary's queries take a while
+            seen = plant.observe()
+            positions, headings = seen.positions, seen.headings
         traj = recorder.finish(positions, crowd.centres, headings)
         summary = {
             **summarize(s, traj, clock=self.options.clock).as_dict(),
@@ -221,6 +260,7 @@ class World(Declarations):
             "referee_would_correct": None if layer == SafetyLayer.REFEREE else would,
             "referee_largest_change": None if layer == SafetyLayer.REFEREE else largest,
             "aborted": self.aborted,
+            **({} if plant is None else {"pose_holds": pose_holds, **plant.report()}),
             **self._agent_reports(),
         }
         if self.aborted is None:

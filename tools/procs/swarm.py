@@ -74,11 +74,12 @@ class Role(StrEnum):
     LOGGER = "logger"
     ROUTER = "router"
     ZYGOTE = "zygote"  # the agents' fork server
+    GUARD = "guard"  # stops ROS 2 robots if the world dies (tools/commands/guard.py)
 
 
 STOP_ORDER = (
     ({Role.AGENT, Role.WORLD}, 5.0),
-    ({Role.LOGGER}, 10.0),
+    ({Role.LOGGER, Role.GUARD}, 10.0),  # the guard sends its stops when it goes
     ({Role.ROUTER, Role.ZYGOTE}, 5.0),
 )
 # What a supervisor (shoal run, shoal bench) may take to stop after SIGTERM/SIGINT before its
@@ -237,12 +238,13 @@ class Swarm:
 
     def check(self) -> None:
         """Raise if a child has exited that was not expected to."""
-        for child in self.children:
-            code = child.poll()
-            if code is not None and not child.done:
-                raise ChildFailed(
-                    f"{child.name} exited unexpectedly with code {code}:\n{child.tail()}"
-                )
+        exited = [(c, c.poll()) for c in self.children if not c.done]
+        # A failure first: a logger that finished cleanly because the world died is the
+        # consequence, the world's error (exit 1, its reason in its tail) the cause.
+        exited = sorted(((c, code) for c, code in exited if code is not None),
+                        key=lambda e: e[1] == 0)  # fmt: skip
+        for child, code in exited:
+            raise ChildFailed(f"{child.name} exited unexpectedly with code {code}:\n{child.tail()}")
 
     def expect_exit(self, roles: set[str], timeout: float) -> list[Child]:
         """Mark the children of ``roles`` as allowed to exit and wait for them; returns those
