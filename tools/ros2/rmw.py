@@ -33,6 +33,8 @@ import struct
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 ADMIN = "@ros2_lv"
 DISTROS = ("humble", "jazzy", "kilted", "rolling")
 TWIST = "geometry_msgs/msg/Twist"
@@ -191,6 +193,52 @@ def twist(linear: tuple[float, float], angular_z: float = 0.0) -> bytes:
         angular=vector(x=0.0, y=0.0, z=float(angular_z)),
     )
     return bytes(ts.serialize_cdr(message, TWIST))
+
+
+def odometry(
+    pose: tuple[float, float, float],
+    stamp_ns: int,
+    *,
+    frame_id: str = "odom",
+    child_frame_id: str = "base_link",
+    speed: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> bytes:
+    """A ``nav_msgs/msg/Odometry`` in CDR, as a ground robot's driver publishes it: ``pose``
+    (x, y, yaw) in ``frame_id`` at ``stamp_ns`` (ns since the epoch), and ``speed`` (linear x,
+    linear y, angular z) in ``child_frame_id``, covariances zero (unknown)."""
+    x, y, yaw = pose
+    if not all(math.isfinite(v) for v in (*pose, *speed)) or stamp_ns < 0:
+        raise RmwError(f"an odometry must be finite and stamped, got {pose}, {speed}, {stamp_ns}")
+    ts = _typestore()
+    t = ts.types
+    vector = t["geometry_msgs/msg/Vector3"]
+    header = t["std_msgs/msg/Header"](
+        stamp=t["builtin_interfaces/msg/Time"](
+            sec=int(stamp_ns // 1_000_000_000), nanosec=int(stamp_ns % 1_000_000_000)
+        ),
+        frame_id=frame_id,
+    )
+    orientation = t["geometry_msgs/msg/Quaternion"](
+        x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0)
+    )
+    position = t["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0)
+    zeros = np.zeros(36, dtype=np.float64)
+    message = t[ODOMETRY](
+        header=header,
+        child_frame_id=child_frame_id,
+        pose=t["geometry_msgs/msg/PoseWithCovariance"](
+            pose=t["geometry_msgs/msg/Pose"](position=position, orientation=orientation),
+            covariance=zeros,
+        ),
+        twist=t["geometry_msgs/msg/TwistWithCovariance"](
+            twist=t[TWIST](
+                linear=vector(x=float(speed[0]), y=float(speed[1]), z=0.0),
+                angular=vector(x=0.0, y=0.0, z=float(speed[2])),
+            ),
+            covariance=zeros,
+        ),
+    )
+    return bytes(ts.serialize_cdr(message, ODOMETRY))
 
 
 def read_twist(payload: bytes) -> tuple[float, float, float]:
