@@ -28,6 +28,8 @@ COMMANDS = {
     "scenarios": "shoal.tools.commands.scenarios:scenarios",
     "bench": "shoal.tools.commands.bench:bench",
     "router": "shoal.tools.commands.router:router",
+    "robots": "shoal.tools.commands.robots:robots",
+    "guard": "shoal.tools.commands.guard:guard",
     "world": "shoal.tools.commands.world:world",
     "agent": "shoal.tools.commands.agent:agent",
     "logger": "shoal.tools.commands.logger:logger",

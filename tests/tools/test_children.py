@@ -12,10 +12,20 @@ import pytest
 
 from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.commands.agent import agent
+from shoal.tools.commands.guard import guard
 from shoal.tools.commands.logger import logger
+from shoal.tools.commands.robots import robots
 from shoal.tools.commands.router import router
 from shoal.tools.commands.world import world
-from shoal.tools.procs.children import AgentSpec, ChildSpec, LoggerSpec, RouterSpec, WorldSpec
+from shoal.tools.procs.children import (
+    AgentSpec,
+    ChildSpec,
+    GuardSpec,
+    LoggerSpec,
+    RobotsSpec,
+    RouterSpec,
+    WorldSpec,
+)
 
 SECURE = Path(__file__).parent  # an existing folder: click checks that it exists
 COMMON: dict[str, Any] = {"run_id": "r-1", "connect": ("tcp/127.0.0.1:7447", "tcp/10.0.0.2:7447")}
@@ -38,12 +48,41 @@ SPECS: list[tuple[ChildSpec, click.Command]] = [
             layer_epoch=0.2,
             start_timeout=12.0,
             multicast=True,
+            robots="ros2",
+            ros_connect=("tcp/10.0.0.9:7447",),
+            ros_domain=12,
+            ros_distro="humble",
+            ros_prefix="tb",
+            ros_pose="pose",
+            pose_timeout=0.25,
             **COMMON,
         ),
         world,
     ),
     (WorldSpec(run_id="r-2"), world),
     (AgentSpec(agent_id=7, drop_rate=0.25, drop_seed=3, secure=SECURE, **COMMON), agent),
+    (
+        GuardSpec(
+            count=5, ros_connect=("tcp/10.0.0.9:7447",), ros_domain=3, ros_prefix="tb", **COMMON
+        ),
+        guard,
+    ),
+    (
+        RobotsSpec(
+            scenario="robotarium",
+            count=3,
+            listen=("tcp/127.0.0.1:7448",),
+            domain=7,
+            distro="kilted",
+            prefix="bot",
+            rate=30.0,
+            latency_ms=20.0,
+            jitter_ms=5.0,
+            cmd_timeout=0.2,
+            seed=9,
+        ),
+        robots,
+    ),
 ]
 
 

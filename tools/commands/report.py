@@ -111,6 +111,18 @@ def render_summary(summary: dict[str, Any]) -> str:
                 f"{_fmt(summary.get('actuator_corrections'))}",
             )
         )
+    if summary.get("robot_poses") is not None:  # --robots ros2: real (or simulated) robots
+        rows.append(
+            (
+                "robots",
+                f"ROS 2: {_fmt(summary['robot_poses'])} poses heard "
+                f"({_fmt(summary.get('robot_poses_dropped'))} malformed dropped; age when used "
+                f"p99 {_fmt(summary.get('pose_age_p99_ms'), ' ms', 1)}, max "
+                f"{_fmt(summary.get('pose_age_max_ms'), ' ms', 1)}), "
+                f"{_fmt(summary.get('robot_commands'))} Twists sent, "
+                f"{_fmt(summary.get('pose_holds'))} robot-ticks held for a stale pose",
+            )
+        )
     reports = reports_in(summary)
     if reports:
         rss = [r["peak_rss_kb"] for r in reports.values() if r.get("peak_rss_kb")]

@@ -25,7 +25,13 @@ from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
-from shoal.tools.procs.children import AgentSpec, WorldSpec, check_run_id, click_options
+from shoal.tools.procs.children import (
+    ROBOT_OPTIONS,
+    AgentSpec,
+    WorldSpec,
+    check_run_id,
+    click_options,
+)
 from shoal.tools.procs.launch import RunPlan, launch
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 
@@ -102,7 +108,7 @@ def _where_the_log_is(out: Path) -> str:
     help="With --live: start the run only once a viewer has subscribed to one of its topics.",
 )
 @click_options(AgentSpec, only=("drop_rate", "drop_seed", "delay_ms", "jitter_ms"))
-@click_options(WorldSpec, only=("safety_layer", "layer_epoch"))
+@click_options(WorldSpec, only=("safety_layer", "layer_epoch", *ROBOT_OPTIONS))
 @click.option(
     "--secure",
     is_flag=True,
@@ -138,6 +144,7 @@ def run(
     layer_epoch: float,
     secure: bool,
     secure_dir: Path | None,
+    **robots: Any,
 ) -> None:
     """Run SCENARIO with one OS process per agent, a world, a logger (and a router).
 
@@ -161,6 +168,11 @@ def run(
             f"{jitter_ms:g} ms is more than --delay-ms {delay_ms:g}: a message cannot go out "
             "before it is sent",
             param_hint="--jitter-ms",
+        )
+    if robots["robots"] == "ros2" and (clock != Clock.REALTIME or speed != 1.0):
+        raise click.BadParameter(
+            "needs --clock realtime at --speed 1: robots move on the wall clock",
+            param_hint="--robots",
         )
     if speed != 1.0 and clock != Clock.REALTIME:
         raise click.BadParameter(
@@ -196,6 +208,7 @@ def run(
         secure=secure or secure_dir is not None,
         secure_dir=secure_dir,
         overwrite=force,
+        robots=robots,
     )
     taken = [p for p in (plan.out, sibling(plan.out) if foxglove else None) if p and p.exists()]
     if taken and not force:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
+from collections.abc import Iterator
 from typing import Any
 
 import click
@@ -11,11 +13,18 @@ import click
 from shoal.bus.acl import WORLD
 from shoal.bus.runtime import exit_on_signals
 from shoal.bus.seam import ZenohBus
+from shoal.bus.types import Clock
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.children import WorldSpec, click_options
-from shoal.tools.procs.session import client_session
+from shoal.tools.procs.session import (
+    PROMPT_CONNECT_MS,
+    client_session,
+    open_session,
+    session_config,
+)
 from shoal.world.onboard import Link
+from shoal.world.plant import Plant
 from shoal.world.process import World, WorldAbort, WorldOptions
 from shoal.world.scenario import Scenario
 
@@ -43,11 +52,46 @@ def link_of(spec: WorldSpec, scn: Scenario) -> Link:
     )
 
 
+@contextlib.contextmanager
+def robots_of(spec: WorldSpec, scn: Scenario) -> Iterator[Plant | None]:
+    """The robots the world drives: None, its own kinematics; with ``--robots ros2``, ROS 2
+    robots over a session with their router (tools/ros2/bridge.py), closed afterwards."""
+    if spec.robots != "ros2":
+        yield None
+        return
+    if spec.clock != Clock.REALTIME or spec.speed != 1.0:
+        raise click.BadParameter("robots move on the wall clock: needs --clock realtime at "
+                                 "--speed 1", param_hint="--robots")  # fmt: skip
+    if scn.dim != 2:
+        raise click.BadParameter(f"ROS 2 ground robots drive in the plane; {scn.name} is "
+                                 f"{scn.dim}-D", param_hint="--robots")  # fmt: skip
+    from shoal.tools.ros2.bridge import Ros2Robots
+    from shoal.tools.ros2.node import RMW_ZENOHD, RosSession
+    from shoal.tools.ros2.rmw import ODOMETRY, POSE_STAMPED, RmwError
+
+    endpoints = spec.ros_connect or (RMW_ZENOHD,)
+    conf = session_config("client", connect=endpoints, connect_ms=PROMPT_CONNECT_MS)
+    with open_session(conf, f"the ROS 2 router at {' '.join(endpoints)}") as session:
+        try:
+            ros = RosSession(session, spec.ros_domain, spec.ros_distro)
+            names = [f"/{spec.ros_prefix}{i}" for i in range(1, scn.n + 1)]
+            pose = ODOMETRY if spec.ros_pose == "odom" else POSE_STAMPED
+            robots = Ros2Robots(ros, names, scn.lookaheads, scn.dt, pose_type=pose,
+                                pose_timeout=spec.pose_timeout)  # fmt: skip
+        except RmwError as exc:
+            raise click.BadParameter(str(exc), param_hint="--ros-prefix") from None
+        try:
+            yield robots
+        finally:
+            robots.stop()
+            robots.close()
+
+
 @click.command()
 @click_options(WorldSpec)
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def world(as_json: bool, **params: Any) -> None:
-    """Simulate kinematics and sensing for the agents of run RUN, in lockstep."""
+    """Sense and move the agents of run RUN: simulated kinematics, or ROS 2 robots."""
     exit_on_signals()
     spec = WorldSpec.of(params)
     scn = scenario_of(spec)
@@ -61,7 +105,10 @@ def world(as_json: bool, **params: Any) -> None:
         layer_epoch=spec.layer_epoch,
         start_timeout=spec.start_timeout,
     )
-    with client_session(spec, WORLD, "world") as session:
+    with contextlib.ExitStack() as stack:
+        plant = stack.enter_context(robots_of(spec, scn))
+        options = dataclasses.replace(options, plant=plant)
+        session = stack.enter_context(client_session(spec, WORLD, "world"))
         try:
             with World(scn, options, ZenohBus(session)) as w:
                 w.wait_for_everyone()

@@ -224,6 +224,34 @@ class LoggerSpec(ClientSpec):
     force: bool = option("--force", default=False, is_flag=True, help="Overwrite OUT if it exists.")
 
 
+def _ros_connect() -> Any:
+    return option(
+        "--ros-connect", default=(), multiple=True,
+        help="--robots ros2: the ROS 2 router (rmw_zenohd, or `shoal robots --listen`) "
+        "[default: tcp/127.0.0.1:7447].",
+    )  # fmt: skip
+
+
+def _ros_domain() -> Any:
+    return option(
+        "--ros-domain", default=0, type=click.IntRange(0, 232), help="--robots ros2: domain id."
+    )
+
+
+def _ros_distro() -> Any:
+    return option(
+        "--ros-distro", default="jazzy",
+        type=click.Choice(["humble", "jazzy", "kilted", "rolling"]),
+        help="--robots ros2: the robots' ROS 2 distribution.",
+    )  # fmt: skip
+
+
+def _ros_prefix() -> Any:
+    return option(
+        "--ros-prefix", default="robot", help="--robots ros2: agent i's robot is /<prefix><i>."
+    )
+
+
 @dataclass(frozen=True, kw_only=True)
 class WorldSpec(ClientSpec):
     """``shoal world``: the world process of a run."""
@@ -275,6 +303,29 @@ class WorldSpec(ClientSpec):
     start_timeout: float = option(
         "--start-timeout", default=60.0, help="Seconds to wait for every agent."
     )
+    robots: str = option(
+        "--robots", default="simulated", type=click.Choice(["simulated", "ros2"]),
+        help="simulated: the world integrates the robots' kinematics; ros2: it drives ROS 2 "
+        "robots over rmw_zenoh instead (realtime, speed 1; docs/ros2.md): agent i's pose from "
+        "/<prefix><i>/odom, its command as a Twist on /<prefix><i>/cmd_vel.",
+    )  # fmt: skip
+    ros_connect: tuple[str, ...] = _ros_connect()
+    ros_domain: int = _ros_domain()
+    ros_distro: str = _ros_distro()
+    ros_prefix: str = _ros_prefix()
+    ros_pose: str = option(
+        "--ros-pose", default="odom", type=click.Choice(["odom", "pose"]),
+        help="--robots ros2: odom, nav_msgs/msg/Odometry on /<ns>/odom; pose, a motion "
+        "capture's geometry_msgs/msg/PoseStamped on /<ns>/pose.",
+    )  # fmt: skip
+    pose_timeout: float = option(
+        "--pose-timeout", default=0.5, type=click.FloatRange(min=0.01),
+        help="--robots ros2: seconds after which a robot whose pose has not come is held still.",
+    )  # fmt: skip
+
+
+ROBOT_OPTIONS = ("robots", "ros_connect", "ros_domain", "ros_distro", "ros_prefix", "ros_pose",
+                 "pose_timeout")  # fmt: skip
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -305,3 +356,66 @@ class AgentSpec(ClientSpec):
         "--jitter-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
         help="Fault injection: … plus or minus up to this many ms, uniform (at most --delay-ms).",
     )  # fmt: skip
+
+
+@dataclass(frozen=True, kw_only=True)
+class RobotsSpec(ChildSpec):
+    """``shoal robots``: simulated ROS 2 robots speaking rmw_zenoh (tools/ros2/fleet.py)."""
+
+    command: ClassVar[str] = "robots"
+    scenario: str = argument(default="default")
+    count: int | None = option(
+        "--count", "-n", default=None, type=click.IntRange(min=1),
+        help="Robots to start: agents 1–N of SCENARIO [default: all of them].",
+    )  # fmt: skip
+    connect: tuple[str, ...] = option(
+        "--connect", "-e", default=(), multiple=True,
+        help="Router to join as a client, as rmw_zenoh's nodes do [default: "
+        "tcp/127.0.0.1:7447, rmw_zenohd's].",
+    )  # fmt: skip
+    listen: tuple[str, ...] = option(
+        "--listen", "-l", default=(), multiple=True,
+        help="Be the router instead, listening here (no rmw_zenohd needed).",
+    )  # fmt: skip
+    domain: int = option(
+        "--domain", default=0, type=click.IntRange(0, 232), envvar="ROS_DOMAIN_ID",
+        help="ROS 2 domain id.",
+    )  # fmt: skip
+    distro: str = option(
+        "--distro", default="jazzy", type=click.Choice(["humble", "jazzy", "kilted", "rolling"]),
+        help="ROS 2 distribution the robots run (Humble's keys carry no type hash).",
+    )  # fmt: skip
+    prefix: str = option(
+        "--prefix", default="robot",
+        help="Robot i's namespace is /<prefix><i>: its topics /<prefix><i>/cmd_vel and "
+        "/<prefix><i>/odom.",
+    )  # fmt: skip
+    rate: float = option(
+        "--rate", default=50.0, type=click.FloatRange(min=1.0, max=1000.0),
+        help="Odometry messages per second per robot.",
+    )  # fmt: skip
+    latency_ms: float = option(
+        "--latency-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
+        help="Hold every odometry message back this many ms (a slow link).",
+    )  # fmt: skip
+    jitter_ms: float = option(
+        "--jitter-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
+        help="… plus or minus up to this many ms, uniform (at most --latency-ms).",
+    )  # fmt: skip
+    cmd_timeout: float = option(
+        "--cmd-timeout", default=0.5, type=click.FloatRange(min=0.01, max=60.0),
+        help="Seconds without a cmd_vel after which a robot stops, as a real driver does.",
+    )  # fmt: skip
+    seed: int = option("--seed", default=0, help="Seed of the odometry delays.")
+
+
+@dataclass(frozen=True, kw_only=True)
+class GuardSpec(ClientSpec):
+    """``shoal guard``: stops run RUN's ROS 2 robots if its world goes away."""
+
+    command: ClassVar[str] = "guard"
+    count: int = option("--count", "-n", type=click.IntRange(min=1), help="Robots 1–N.")
+    ros_connect: tuple[str, ...] = _ros_connect()
+    ros_domain: int = _ros_domain()
+    ros_distro: str = _ros_distro()
+    ros_prefix: str = _ros_prefix()

@@ -11,6 +11,7 @@ import os
 import socket
 import sys
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
@@ -24,7 +25,13 @@ from shoal.bus.report import reports_in
 from shoal.bus.runtime import ArrivalKind, Inbox, warn
 from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.deploy.certs import make_material
-from shoal.tools.procs.children import AgentSpec, LoggerSpec, RouterSpec, WorldSpec
+from shoal.tools.procs.children import (
+    AgentSpec,
+    GuardSpec,
+    LoggerSpec,
+    RouterSpec,
+    WorldSpec,
+)
 from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
@@ -72,6 +79,7 @@ class RunPlan:
         False  # account each process's CPU per tick (tools/procs/cpu.py; the benchmark)
     )
     overwrite: bool = False  # the logger may replace an existing ``out``
+    robots: Mapping[str, Any] = field(default_factory=dict)  # the world's ROBOT_OPTIONS
 
     @property
     def agents(self) -> int:
@@ -136,8 +144,15 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
             clock=plan.clock, speed=plan.speed, safety_layer=plan.safety_layer,
             link_delay_ms=plan.delay_ms, link_jitter_ms=plan.jitter_ms,
             link_drop_rate=plan.drop_rate, link_seed=plan.drop_seed, layer_epoch=plan.layer_epoch,
-            start_timeout=plan.start_timeout, **common,
+            start_timeout=plan.start_timeout, **plan.robots, **common,
         )  # fmt: skip
+        if world.robots == "ros2":  # stops the robots if the world dies without doing so
+            guarding = GuardSpec(
+                count=plan.agents, ros_connect=world.ros_connect, ros_domain=world.ros_domain,
+                ros_distro=world.ros_distro, ros_prefix=world.ros_prefix, **common,
+            )  # fmt: skip
+            guard = swarm.spawn("guard", "guard", guarding.argv(), ready_pipe=True)
+            swarm.wait_ready(guard, plan.start_timeout)
         swarm.spawn("world", "world", world.argv())
         for i in range(1, plan.agents + 1):
             agent = AgentSpec(
@@ -153,7 +168,7 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
         summary, startup = _monitor(
             swarm, Keys(plan.run_id), endpoint, plan, started, lost, window, sink
         )
-        swarm.expect_exit({"world", "agent"}, timeout=10.0)
+        swarm.expect_exit({"world", "agent", "guard"}, timeout=10.0)
         swarm.expect_exit({"logger"}, timeout=10.0)
         reports = reports_in(summary)  # each agent's own figures, via the world (bus/report.py)
         rss = [r["peak_rss_kb"] / 1024 for r in reports.values() if r.get("peak_rss_kb")]
