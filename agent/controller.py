@@ -303,7 +303,9 @@ class Controller:
             known = remember(
                 known, sensing.obstacle_ids, sensing.obstacle_centres, sensing.obstacle_radii
             )
-            v, route, planned = self._lead(route, planned, known, sensing, cfg.path.speed)
+            v, route, planned = self._lead(
+                route, planned, known, sensing, cfg.path.speed, cfg.path.reach
+            )
         elif cfg.path is not None:
             v = leader_velocity(cfg.path, sensing.tick, cfg.dt)
         else:
@@ -354,6 +356,7 @@ class Controller:
         known: Known,
         sensing: Sensing,
         speed: float,
+        reach: float,
     ) -> tuple[Vector, tuple[Vector, ...], int]:
         """The leader's nominal with the safety filter: round any obstacle it has seen that its
         next leg would cross (keeping r_j + 2ρ + ε from the centre), re-planned when an obstacle
@@ -368,9 +371,10 @@ class Controller:
             [r for _, _, r in known],
             guard=p.safety_margin,
             clearance=p.safety_margin + p.epsilon,
+            reach=reach,
         )
-        v, route = lead(sensing.position, route, speed, self.config.dt)  # steer dropped what
-        return v, route, planned  # is reached here already: lead drops nothing more
+        v, route = lead(sensing.position, route, speed, self.config.dt, reach=reach)  # steer
+        return v, route, planned  # dropped what is reached here: lead drops nothing more
 
     def _follow(
         self, memory: Memory, sensing: Sensing, neighbours: Mapping[int, AgentState]

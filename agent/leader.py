@@ -33,22 +33,28 @@ from shoal.bus.geometry import (
     segment_distance,
     sub,
 )
+from shoal.bus.types import REACHED
 
 _STEP = math.radians(30.0)  # the polygon's largest turn per vertex
-_REACHED = 1e-9  # m: a waypoint this close counts as visited
 
 Circle = tuple[Vector, float]  # (centre, radius), m
 
 
 def lead(
-    position: VectorLike, route: tuple[Vector, ...], speed: float, dt: float
+    position: VectorLike,
+    route: tuple[Vector, ...],
+    speed: float,
+    dt: float,
+    *,
+    reach: float = REACHED,
 ) -> tuple[Vector, tuple[Vector, ...]]:
     """The leader's velocity towards the next waypoint of ``route``, and the route left.
 
-    Waypoints already reached are dropped first; with none left the leader stands still.
+    Waypoints already reached (within ``reach`` m) are dropped first; with none left the
+    leader stands still.
     """
     here = plain(position)
-    while route and norm(sub(route[0], here)) <= _REACHED:
+    while route and norm(sub(route[0], here)) <= reach:
         route = route[1:]
     if not route:
         return (0.0,) * len(here), route
@@ -85,6 +91,7 @@ def steer(
     *,
     guard: float,
     clearance: float,
+    reach: float = REACHED,
 ) -> tuple[tuple[Vector, ...], int]:
     """The route ahead of a leader at ``position``, and how many of its first points are the
     vertices of a detour (``planned``; the rest are the scenario's waypoints).
@@ -95,9 +102,10 @@ def steer(
     Without that the leader headed for a vertex it could never reach and circled the obstacle
     that held it for the rest of the run (issue 29: 5 of 6 fields of another generator that
     never arrived). While the detour ahead is clear it is kept as it is; with no detour ahead,
-    :func:`detour` plans one if the next leg needs it. Points already reached are dropped."""
+    :func:`detour` plans one if the next leg needs it. Points already reached (within ``reach``
+    m) are dropped."""
     here = plain(position)
-    while route and norm(sub(route[0], here)) <= _REACHED:
+    while route and norm(sub(route[0], here)) <= reach:
         route, planned = route[1:], max(0, planned - 1)
     if planned and len(centres):
         circles = [(plain(c), float(r)) for c, r in zip(centres, radii)]

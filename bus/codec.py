@@ -21,6 +21,7 @@ import msgpack
 from shoal.bus.errors import DecodeError
 from shoal.bus.messages import AgentState, Command, Event, Mover, Sensing, TickRecord
 from shoal.bus.types import (
+    REACHED,
     AgentConfig,
     Clock,
     ControlParams,
@@ -391,7 +392,10 @@ def _path_body(p: PathSpec | None) -> dict[str, Any] | None:
     if p is None:
         return None
     if isinstance(p, Waypoints):
-        return {"type": "waypoints", "points": [list(x) for x in p.points], "speed": p.speed}
+        body = {"type": "waypoints", "points": [list(x) for x in p.points], "speed": p.speed}
+        if p.reach != REACHED:  # simulated runs' configurations stay byte for byte as they were
+            body["reach"] = p.reach
+        return body
     return {
         "type": "sinusoid",
         "start": list(p.start),
@@ -412,7 +416,12 @@ def _path_from(value: Any, where: str) -> PathSpec | None:
         points = _vectors(m.get("points"), f"{where}.points")
         if not points:
             raise DecodeError(f"{where}.points: no waypoint")
-        return Waypoints(points=points, speed=_float(m.get("speed"), f"{where}.speed"))
+        reach = m.get("reach")
+        return Waypoints(
+            points=points,
+            speed=_float(m.get("speed"), f"{where}.speed"),
+            reach=REACHED if reach is None else _float(reach, f"{where}.reach"),
+        )
     if kind == "sinusoid":
         return Sinusoid(
             start=_vector(m.get("start"), f"{where}.start"),

@@ -8,6 +8,7 @@ frame, of length ``dim`` (2 or 3). Ticks are integers; simulated time is ``tick 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from typing import Any
@@ -99,12 +100,21 @@ class ControlParams(Gains):
     separation: float = 0.4
 
 
+REACHED = 1e-9  # m: the reach of a simulated leader (Waypoints.reach)
+
+
 @dataclass(frozen=True, slots=True)
 class Waypoints:
-    """The leader visits ``points`` in order along straight legs at ``speed`` m/s, then stops."""
+    """The leader visits ``points`` in order along straight legs at ``speed`` m/s, then stops.
+
+    A point counts as visited once the leader is within ``reach`` m of it. Simulated, the
+    leader's last step lands on the point, so 1 nm does; a real robot, seen through late poses
+    and moved by commands held for a tick, overshoots and is sent back without end (issue 33),
+    so the world serves a tick's travel when it drives robots (world/process.py)."""
 
     points: tuple[Vector, ...]
     speed: float
+    reach: float = REACHED
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,6 +195,8 @@ def config_problem(c: AgentConfig) -> tuple[str, str] | None:
     )  # fmt: skip
     if any(len(v) != c.dim for v in points):
         return "path", f"every point and direction needs {c.dim} coordinates"
+    if isinstance(path, Waypoints) and not 0 < path.reach < math.inf:
+        return "path.reach", f"must be > 0 m and finite, got {path.reach}"
     p = c.params
     positive = ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max", "speed_limit",
                 "separation")  # fmt: skip

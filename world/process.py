@@ -15,7 +15,7 @@ only reference to the path: the world holds every agent still and ends the run (
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -27,7 +27,7 @@ from shoal.bus.messages import AgentState, Command, Event, TickRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import Clock, SafetyLayer
+from shoal.bus.types import AgentConfig, Clock, SafetyLayer, Waypoints
 from shoal.world.kinematics import actuate, largest_change, move
 from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
@@ -76,10 +76,7 @@ class World(Declarations):
         self.aborted: str | None = None  # why the run ended early (the leader is gone)
         self.latest: dict[int, tuple[AgentState, Command]] = {}  # each agent's newest command
         self.up: set[str] = set()
-        configs = {
-            i: codec.encode_config(scenario.agent_config(i, options.clock), clock=options.clock)
-            for i in self.alive
-        }
+        configs = {i: codec.encode_config(self._config(i), clock=options.clock) for i in self.alive}
 
         def serve(key: str) -> Answer | None:  # on the bus's thread: reads, never writes, state
             last = key.rsplit("/", 1)[-1]
@@ -119,6 +116,18 @@ class World(Declarations):
     @property
     def layer(self) -> SafetyLayer:
         return SafetyLayer.of(self.options.layer, self.options.clock)
+
+    def _config(self, i: int) -> AgentConfig:
+        """Agent ``i``'s configuration. Driving robots, the leader counts a waypoint as visited
+        within a tick's travel at the path's speed, the finest that commands held for a tick
+        place a robot. Within 1 nm, as simulated, late poses made the leader overshoot its first
+        corner and be sent back for the rest of the run (issue 33; tests/agent/test_leader.py)."""
+        config = self.scenario.agent_config(i, self.options.clock)
+        path = config.path
+        if self.options.plant is None or not isinstance(path, Waypoints):
+            return config
+        reach = path.speed * config.dt
+        return replace(config, path=replace(path, reach=reach))
 
     # -- start ----------------------------------------------------------------------------------
 

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from shoal.agent.leader import detour, lead, remember, steer
 from shoal.bus.geometry import segment_distance
+from shoal.bus.types import REACHED
 from shoal.world.errors import AssumptionError, DetourWarning
 from shoal.world.loader import scenario_from_dict
 
@@ -208,3 +209,33 @@ def test_a_leader_that_loses_sight_of_an_obstacle_round_a_cluster_does_not_turn_
         scn = load_scenario(Path(__file__).parents[1] / "fields" / "leader-sees-and-loses.yaml")
     s = summarize(scn, simulate(scn))
     assert s.collisions == 0 and s.leader_shortfall <= 1e-9
+
+
+def _late_leader(reach: float, lag: int, ticks: int = 3000) -> tuple[int, float, float]:
+    """A leader that sees its own position ``lag`` ticks late (a robot's pose) on an L-shaped
+    route, 1 m/s, dt 0.01 s: the waypoints left at the end, how far it ended from the last
+    one (m) and how fast it still moved over the last second (m/s, greatest)."""
+    dt, route = 0.01, ((5.0, 0.0), (5.0, 5.0))
+    here, seen, moving = np.zeros(2), [np.zeros(2)] * (lag + 1), 0.0
+    for k in range(ticks):
+        v, route = lead(seen[-lag - 1], route, 1.0, dt, reach=reach)
+        here = here + dt * np.asarray(v)
+        seen.append(here)
+        if k >= ticks - 100:
+            moving = max(moving, float(np.linalg.norm(v)))
+    return len(route), float(np.linalg.norm(here - (5.0, 5.0))), moving
+
+
+@pytest.mark.parametrize("lag", [2, 3, 5])
+def test_a_leader_seen_late_visits_its_route_within_the_reach_the_world_serves(lag: int) -> None:
+    """Issue 33: through late poses a leader that must land within 1 nm overshoots, is sent
+    back, overshoots again, and never ends its route; with the reach the world serves robots
+    (a tick's travel at the path's speed, world/process.py) it ends it and stands still,
+    within that reach and the lag's travel of its goal."""
+    dt = 0.01
+    left, _, moving = _late_leader(REACHED, lag)
+    assert left == 1 and moving > 0.01
+    reach = 1.0 * dt
+    left, off, moving = _late_leader(reach, lag)
+    assert left == 0 and moving == 0.0
+    assert off <= reach + lag * dt * 1.0

@@ -17,7 +17,7 @@ from shoal.bus import codec
 from shoal.bus.errors import DecodeError, WireError
 from shoal.bus.keys import Keys, agent_of
 from shoal.bus.messages import AgentState, Command, Event, Sensing, TickRecord
-from shoal.bus.types import ControlParams
+from shoal.bus.types import REACHED, ControlParams, Waypoints
 from shoal.bus.zconfig import zenoh_config
 from shoal.world.loader import builtin_names, load_scenario
 
@@ -108,6 +108,21 @@ def test_sensing_with_mismatched_obstacle_lists_is_refused() -> None:
     bad = codec.encode_sensing(Sensing(1, (0.0, 0.0), (0, 1), ((1.0, 1.0),), (1.0,)))
     with pytest.raises(DecodeError, match="differ in length"):
         codec.decode_sensing(bad)
+
+
+def test_a_leaders_reach_travels_only_when_it_is_not_the_simulated_one() -> None:
+    leader = load_scenario("default").agent_config(1)
+    assert isinstance(leader.path, Waypoints) and leader.path.reach == REACHED
+    assert b"reach" not in codec.encode_config(leader)  # simulated runs' bytes as before
+    wide = dataclasses.replace(leader, path=dataclasses.replace(leader.path, reach=0.51))
+    data = codec.encode_config(wide)
+    assert b"reach" in data and codec.decode_config(data) == wide
+    for bad in (0.0, -1.0, float("inf"), float("nan")):
+        broken = codec.encode_config(
+            dataclasses.replace(leader, path=dataclasses.replace(leader.path, reach=bad))
+        )
+        with pytest.raises(DecodeError, match=r"config\.path\.reach"):
+            codec.decode_config(broken)
 
 
 def test_unknown_clock_in_a_config_is_refused() -> None:

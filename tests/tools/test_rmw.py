@@ -405,14 +405,25 @@ def test_a_formation_of_robots_shoal_did_not_write_reaches_its_goal(
     """Five holonomic robots of the other client (domain 6, namespaces /p1…/p5) and
     ``shoal run --robots ros2``: the world takes their odometry, sends their Twists, and the
     formation arrives with 0 collisions, every guard and separation kept; every robot's last
-    command is a zero Twist; nothing the world heard was dropped."""
+    command is a zero Twist; nothing the world heard was dropped. The route turns a corner
+    at its goal (2 m more, square to it): a leader that must land within 1 nm, seen through
+    late poses, stalled at such a corner for good (issue 33)."""
+    import yaml
+
     from shoal.tools.campaign.fields import FieldOptions, make_field
+    from shoal.world.loader import scenario_from_dict
 
     sdk, port = partner
     opts = FieldOptions(length=8.0, tail=3.0, speed_limit=4.0)
-    field = make_field(load_scenario("obstacles"), 5, options=opts)
+    drawn = yaml.safe_load(make_field(load_scenario("obstacles"), 5, options=opts).source)
+    points, speed = drawn["leader"]["waypoints"], drawn["leader"]["speed"]
+    (x0, y0), (x1, y1) = points[-2], points[-1]
+    leg = math.hypot(x1 - x0, y1 - y0)
+    points.append([x1 - 2.0 * (y1 - y0) / leg, y1 + 2.0 * (x1 - x0) / leg])
+    drawn["duration"] += 2.0 / speed
+    field = scenario_from_dict(drawn)
     path = tmp_path / "field.yaml"
-    path.write_text(field.source, encoding="utf-8")
+    path.write_text(yaml.safe_dump(drawn), encoding="utf-8")
     robots = PartnerFleet(sdk, port, field.initial_positions, domain=6)
     try:
         proc = subprocess.run(

@@ -14,7 +14,7 @@ from memoryrun import RUN, recorded, run_in_memory, short
 from shoal.bus import codec
 from shoal.bus.keys import Keys
 from shoal.bus.memory import MemoryBus
-from shoal.bus.types import Clock
+from shoal.bus.types import REACHED, Clock, Waypoints
 from shoal.world.plant import Observed, PlantError
 from shoal.world.process import World, WorldAbort, WorldOptions
 from shoal.world.scenario import Scenario
@@ -111,3 +111,22 @@ def test_robots_are_refused_in_lockstep_and_at_another_speed() -> None:
     ):
         with pytest.raises(WorldAbort, match="wall clock"):
             World(scn, options, MemoryBus())
+
+
+def test_driving_robots_the_leader_is_served_a_reach_of_a_ticks_travel() -> None:
+    scn = short("obstacles", 0.5)
+    keys = Keys(RUN)
+
+    def served(plant: Robots | None) -> dict[int, Any]:
+        bus = MemoryBus()
+        with World(scn, WorldOptions(run=RUN, clock=Clock.REALTIME, plant=plant), bus):
+            got = bus.ask([keys.config(i) for i in range(1, scn.n + 1)], timeout=1.0)
+        return {i + 1: codec.decode_config(a.payload) for i, a in enumerate(got)}
+
+    simulated, driven = served(None), served(Robots(scn))
+    path = simulated[1].path
+    assert isinstance(path, Waypoints) and path.reach == REACHED
+    wide = driven[1].path
+    assert isinstance(wide, Waypoints)
+    assert wide.reach == path.speed * scn.dt and wide.points == path.points
+    assert all(driven[i] == simulated[i] for i in range(2, scn.n + 1))  # followers as they were

@@ -73,7 +73,7 @@ def test_the_world_logs_a_trapped_leader_while_the_run_goes_on(monkeypatch) -> N
     from shoal.bus.memory import MemoryBus
     from shoal.world.loader import scenario_from_dict
 
-    def circle(position, route, speed, _dt):  # type: ignore[no-untyped-def]
+    def circle(position, route, speed, _dt, reach):  # type: ignore[no-untyped-def]
         x, y = position[0] - 2.0, position[1]
         size = math.hypot(x, y)
         return (-speed * y / size, speed * x / size), route
