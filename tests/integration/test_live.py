@@ -586,3 +586,42 @@ def test_the_servers_client_log_is_quiet_unless_verbose(
         assert said == "foxglove: Dropping client 127.0.0.1:4000: handshake failed\n"
     else:
         assert said == ""
+
+
+def _request(port: int, head: bytes) -> bytes:
+    """What the live view's port answers to ``head`` (a request head), up to its close or 2 s
+    after its first bytes."""
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+        s.sendall(head)
+        got = s.recv(65_536)
+        s.settimeout(2.0)
+        try:
+            while more := s.recv(65_536):
+                got += more
+        except TimeoutError:
+            pass
+    return got
+
+
+def test_a_browser_on_the_port_is_told_what_it_is_and_foxglove_still_connects() -> None:
+    """Issue 34: a browser opened on the live view's URL got an empty reply. It gets one line
+    of what the port is and how to open it; a WebSocket upgrade (Foxglove's subprotocol)
+    reaches the SDK's server through the same port and is accepted."""
+    run = reference_log(TINY)
+    with LiveView(run.scenario, "unit", port=0) as view:
+        page = _request(view.port, b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
+        upgrade = (
+            b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+            b"Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+        )
+        answer = _request(view.port, upgrade)
+        url, app = view.url, view.app_url
+    head, _, body = page.partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 200 OK") and b"text/plain" in head
+    text = body.decode()
+    assert f"shoal's live view: a Foxglove WebSocket server at {url}" in text
+    assert "Open connection" in text and app is not None and app in text
+    assert f"ws%3A%2F%2F127.0.0.1%3A{view.port}" in app  # the front's port, not the SDK's
+    assert answer.startswith(b"HTTP/1.1 101"), answer[:200]
+    assert b"s3pPLMBiTxaQ9kYGzzhZRbK+xOo=" in answer  # RFC 6455's accept for that key

@@ -23,9 +23,11 @@ bytes but for the timestamps, and one Foxglove layout serves both (docs/foxglove
 
 from __future__ import annotations
 
+import errno
 import json
 import threading
 import time
+import urllib.parse
 from collections import deque
 from types import TracebackType
 from typing import Literal
@@ -35,6 +37,7 @@ from foxglove.websocket import ChannelView, Client, ServerListener, WebSocketSer
 
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
+from shoal.tools.foxglove.front import Front, hint
 from shoal.tools.foxglove.plots import TOPICS as METRICS
 from shoal.tools.foxglove.plots import topics_of
 from shoal.tools.foxglove.stream import Stream
@@ -52,6 +55,7 @@ from shoal.tools.foxglove.views import (
 )
 from shoal.world.scenario import Scenario
 
+APP = "https://app.foxglove.dev"
 DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket connection
 FRAME_HZ = 30.0  # wall clock: agents, frames and graph, at most
 TRAIL_HZ = 2.0  # wall clock: the trails (messages that grow with the run), at most
@@ -145,6 +149,7 @@ class LiveView:
             if topic not in METRICS or topic in has
         }  # as in the export: no channel that would have nothing to say
         self._server: WebSocketServer | None = None
+        self._front: Front | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="shoal live view", daemon=True)
         self._fresh = False  # a record taken since the scene was last drawn
@@ -157,25 +162,39 @@ class LiveView:
     @property
     def app_url(self) -> str | None:
         """A link that opens this server in Foxglove's web app (None before it is up)."""
-        return self._server.app_url() if self._server is not None else None
+        if self._server is None:
+            return None
+        return f"{APP}?ds=foxglove-websocket&ds.url={urllib.parse.quote(self.url, safe='')}"
 
     def __enter__(self) -> LiveView:
+        """The SDK's server on loopback, any free port; in front of it, on the port asked for,
+        the front (tools/foxglove/front.py) that also answers a browser."""
         try:
             self._server = foxglove.start_server(
                 name=f"shoal {self.stream.scenario.name}",
-                host=self.host,
-                port=self.port,
+                host="127.0.0.1",
+                port=0,
                 server_listener=self._subs,
                 context=self._context,
             )
         except RuntimeError as exc:
-            why = str(exc).removeprefix("FoxgloveError: ")
-            if "in use" in why:
+            raise LiveError(str(exc).removeprefix("FoxgloveError: ")) from None
+        try:
+            self._front = Front(self.host, self.port, self._server.port, self._hint)
+        except OSError as exc:
+            self._server.stop()
+            self._server = None
+            why = exc.strerror or str(exc)
+            if exc.errno == errno.EADDRINUSE:
                 why = f"{self.host}:{self.port} is in use; pick another port with --live-port"
             raise LiveError(why) from None
-        self.port = self._server.port  # the port taken, if asked for any (0)
+        self.port = self._front.port  # the port taken, if asked for any (0)
+        self._front.__enter__()
         self._thread.start()
         return self
+
+    def _hint(self) -> str:
+        return hint(self.url, self.app_url)
 
     def __exit__(
         self,
@@ -191,6 +210,8 @@ class LiveView:
                 # The server has no flush: what it still queues when stop() begins is lost (a
                 # replay ends right after its last record, and lost its last ticks' views).
                 time.sleep(FLUSH_S)
+        if self._front is not None:
+            self._front.close()
         if self._server is not None:
             # stop() waits for each client to close, and a slow one reads its backlog first:
             # stopping goes on without us after STOP_WAIT_S (the process's exit ends it).
