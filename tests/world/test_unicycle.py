@@ -21,7 +21,8 @@ from shoal.tools.simulator import simulate
 from shoal.world.errors import ScenarioError
 from shoal.world.loader import load_scenario, parse_scenario
 from shoal.world.metrics import summarize
-from shoal.world.scenario import Unicycle
+from shoal.world.scenario import Scenario, Unicycle
+from shoal.world.trajectory import Trajectory
 from shoal.world.unicycle import (
     arc_departure,
     body_centres,
@@ -407,6 +408,49 @@ def test_the_robotarium_run_keeps_its_bodies_apart_and_off_the_obstacles() -> No
     s = load_scenario("robotarium")
     traj = simulate(s)
     assert traj.headings is not None and summarize(s, traj).arrived
+    least_obstacle, least_pair = _swept_clearances(s, traj)
+    assert least_obstacle > 0 and least_pair > 0
+
+
+@pytest.mark.parametrize(
+    ("headings", "backwards"),
+    [([math.pi] * 5, 5), ([math.pi / 2, -math.pi / 2] * 2 + [math.pi], 1),
+     ([0.0, math.pi, math.pi, -2.5, 2.5], 4)],
+    ids=["all reversed", "sideways", "mixed"],
+)  # fmt: skip
+def test_unicycles_that_start_facing_away_turn_round_beside_obstacles_and_arrive(
+    headings: list[float], backwards: int
+) -> None:
+    """Issue 31, item 5: robots that start facing away from where they must go (every one
+    reversed; side-on; a mix), agents 2 and 3 beside an obstacle, neighbours 0.4 m apart. The
+    point moves as the law asks from the first tick, whatever the heading: a follower facing
+    back turns round (more than a quarter turn) on the spot or in a multi-point turn; a leader
+    facing back, whose path lies straight behind it, reverses the whole way without turning. The
+    formation arrives, and the bodies, swept along the exact arcs, never touch an obstacle or
+    each other."""
+    data = yaml.safe_load(_robotarium())
+    for agent, theta in zip(data["agents"], headings, strict=True):
+        agent["heading"] = theta
+    s = parse_scenario(yaml.safe_dump(data))
+    traj = simulate(s)
+    assert traj.headings is not None
+    facing_back = np.cos(traj.headings[0]) < -0.5
+    assert int(facing_back.sum()) == backwards
+    turned = np.abs(np.unwrap(traj.headings, axis=0) - traj.headings[0]).max(axis=0)
+    followers = facing_back & (np.arange(s.n) > 0)
+    assert (turned[followers] > math.pi / 2).all(), turned
+    if facing_back[0]:
+        assert turned[0] < 1e-9  # the leader drove its route backwards
+    summary = summarize(s, traj)
+    assert summary.arrived and summary.collisions == 0, summary.as_dict()
+    least_obstacle, least_pair = _swept_clearances(s, traj)
+    assert least_obstacle > 0 and least_pair > 0
+
+
+def _swept_clearances(s: Scenario, traj: Trajectory) -> tuple[float, float]:
+    """The least gap (m) between a body and an obstacle, and between two bodies, along the
+    exact arcs of every tick, sampled 20 times a tick."""
+    assert traj.headings is not None
     ell, dt = s.unicycle.lookahead if s.unicycle else 0.0, s.dt
     centres, radii = s.obstacle_centres, s.obstacle_radii
     least_obstacle = least_pair = math.inf
@@ -419,7 +463,7 @@ def test_the_robotarium_run_keeps_its_bodies_apart_and_off_the_obstacles() -> No
             least_obstacle = min(least_obstacle, float(gaps.min()))
             d = np.linalg.norm(c[:, None] - c[None], axis=-1) + np.eye(s.n) * 1e9
             least_pair = min(least_pair, float(d.min()) - 2 * s.agent_radius)
-    assert least_obstacle > 0 and least_pair > 0
+    return least_obstacle, least_pair
 
 
 def test_the_summary_says_how_often_the_point_is_held_to_its_cap() -> None:
