@@ -50,7 +50,8 @@ class Role:
 def roles(run: str, agents: int) -> list[Role]:
     """Every identity of run ``run`` with agents 1..``agents`` and what it needs, no more.
 
-    The world alone publishes sensing, ticks, events, the scenario and the summary, serves the
+    The world alone publishes sensing, ticks, events, the scenario, the summary and (driving
+    robots) what the robots reported and were sent; it serves the
     configurations and asks for the agents' reports; agent i publishes only its own state and
     command, fetches only its own configuration and answers only for its own report; the logger
     and the monitor only listen.
@@ -59,7 +60,7 @@ def roles(run: str, agents: int) -> list[Role]:
     world = Role(
         WORLD,
         token=k.alive_world,
-        publishes=(k.sensings, k.tick, k.event, k.summary, k.scenario),
+        publishes=(k.sensings, k.tick, k.event, k.summary, k.scenario, k.robots),
         discovers=(k.everything,),
         subscribes=(k.commands,),
         watches=(k.alive_everyone,),  # also its check for a second world on the run

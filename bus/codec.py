@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 import msgpack
 
 from shoal.bus.errors import DecodeError
-from shoal.bus.messages import AgentState, Command, Event, Mover, Sensing, TickRecord
+from shoal.bus.messages import AgentState, Command, Event, Mover, RobotsRecord, Sensing, TickRecord
 from shoal.bus.types import (
     REACHED,
     AgentConfig,
@@ -573,6 +573,27 @@ def encode_event(e: Event) -> bytes:
 
 def decode_event(data: bytes) -> Event:
     return Event(**_decode_fields(EVENT, _unpack("event", data)))
+
+
+ROBOTS = (
+    WireField("tick", "tick", _int),
+    WireField("twist", "twists", _vectors),
+    WireField("age", "ages", _floats, sparse=True),  # only from robots that tell their poses' age
+)
+_encode_robots = encoder(ROBOTS)
+
+
+def encode_robots(r: RobotsRecord) -> bytes:
+    return _pack("robots", _encode_robots(r))
+
+
+def decode_robots(data: bytes) -> RobotsRecord:
+    r = RobotsRecord(**_decode_fields(ROBOTS, _unpack("robots", data)))
+    if r.ages and len(r.ages) != len(r.twists):
+        raise DecodeError("robots: ages and twists differ in length")
+    if any(len(t) != 3 for t in r.twists):
+        raise DecodeError("robots.twist: each is [linear x, linear y, angular z]")
+    return r
 
 
 def encode_document(kind: str, body: Mapping[str, Any]) -> bytes:

@@ -88,6 +88,11 @@ class Keys:
         return f"{self.root}/world/tick"
 
     @property
+    def robots(self) -> str:
+        """World → all, every tick of a run that drives robots: their pose ages and Twists."""
+        return f"{self.root}/world/robots"
+
+    @property
     def event(self) -> str:
         """World → all: something worth a line in the log (an agent gone, the run done)."""
         return f"{self.root}/world/event"

@@ -212,6 +212,24 @@ class Event:
         self.text = text
 
 
+@dataclass(init=False, slots=True, unsafe_hash=True)
+class RobotsRecord:
+    """World → all, each tick of a run that drives robots (issue 33): what the robots were sent
+    and what they reported. twists: the command each robot was sent for the tick, (linear x,
+    linear y, angular z) in m/s and rad/s in its own frame (a unicycle's linear y is 0); ages
+    (s): how old each robot's pose was when the world read it at the tick's start (empty when
+    the robots cannot tell). Agent-id order."""
+
+    tick: Final[int]
+    twists: Final[tuple[Vector, ...]]
+    ages: Final[tuple[float, ...]]
+
+    def __init__(self, tick: int, twists: tuple[Vector, ...], ages: tuple[float, ...] = ()) -> None:
+        self.tick = tick
+        self.twists = twists
+        self.ages = ages
+
+
 def _rebuilt(record: Any) -> tuple[type[Any], tuple[Any, ...]]:
     return type(record), tuple([getattr(record, f.name) for f in fields(record)])
 
@@ -224,4 +242,4 @@ def picklable(*classes: type[Any]) -> None:
         copyreg.pickle(cls, _rebuilt)
 
 
-picklable(Mover, Sensing, AgentState, Command, TickRecord, Event)
+picklable(Mover, Sensing, AgentState, Command, TickRecord, Event, RobotsRecord)

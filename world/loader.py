@@ -26,12 +26,12 @@ from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoin
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
 from shoal.world.movers import Drift, Motion, Person, Route
-from shoal.world.scenario import AgentSpec, Control, Obstacle, Scenario, Unicycle
+from shoal.world.scenario import AgentSpec, Control, Obstacle, RobotSetup, Scenario, Unicycle
 
 _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
     "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape", "kinematics",
-    "position_error",
+    "position_error", "robots",
 }  # fmt: skip
 # No length, time or gain in a scenario is larger: squares and sums stay far from overflow.
 _LARGEST = 1e9
@@ -168,6 +168,7 @@ def scenario_from_dict(
         source=source,
         unicycle=unicycle,
         position_error=_non_negative(data.get("position_error", 0.0), "position_error"),
+        robots=_robots(data.get("robots"), len(agents)),
     )
     check_assumptions(scenario)
     return scenario
@@ -283,6 +284,72 @@ _SAFETY_MODES = tuple(Safety)
 
 _UNICYCLE = ("lookahead", "max_speed", "max_turn_rate")
 _WHEELS = ("wheel_radius", "axle", "max_wheel_speed")
+
+
+_ROS_NAME = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
+ROS_DISTROS = ("humble", "jazzy", "kilted", "rolling")
+ROS_POSES = ("odom", "pose")
+
+
+def _robots(value: Any, n: int) -> RobotSetup | None:
+    """``robots``: the ROS 2 robots the agents are (docs/ros2.md): ``namespaces`` (one per
+    agent, in id order, each a ROS 2 name such as ``tb3_1`` or ``/lab/tb3_1``), ``domain``
+    (0–232), ``connect`` (the router's endpoints), ``distro``, ``pose`` (odom or pose) and
+    ``pose_timeout`` (s), each optional."""
+    if value is None:
+        return None
+    data = _mapping(value, "robots")
+    keys = {"namespaces", "domain", "connect", "distro", "pose", "pose_timeout"}
+    _no_unknown(data, keys, "robots")
+    namespaces = None
+    if "namespaces" in data:
+        given = _list(data["namespaces"], "robots.namespaces")
+        if len(given) != n:
+            raise ScenarioError("robots.namespaces", f"needs one per agent ({n}), got {len(given)}")
+        for k, name in enumerate(given, start=1):
+            if not isinstance(name, str) or not _ROS_NAME.fullmatch(name):
+                raise ScenarioError(
+                    f"robots.namespaces (agent {k})",
+                    f"must be a ROS 2 name (letters, digits, _, /; no leading digit), got "
+                    f"{_shown(name)}",
+                )
+        named = ["/" + name.strip("/") for name in given]
+        twice = next((x for x in named if named.count(x) > 1), None)
+        if twice is not None:
+            raise ScenarioError("robots.namespaces", f"{twice} is given to two agents")
+        namespaces = tuple(named)
+    domain = None
+    if "domain" in data:
+        domain = _integer(data["domain"], "robots.domain")
+        if not 0 <= domain <= 232:
+            raise ScenarioError("robots.domain", f"a ROS 2 domain id is 0–232, got {domain}")
+    connect: tuple[str, ...] = ()
+    if "connect" in data:
+        raw = data["connect"]
+        items = [raw] if isinstance(raw, str) else _list(raw, "robots.connect")
+        for item in items:
+            if not isinstance(item, str) or "/" not in item:
+                raise ScenarioError(
+                    "robots.connect",
+                    f"an endpoint is a string such as tcp/192.168.1.2:7447, got {_shown(item)}",
+                )
+        connect = tuple(items)
+    choices = {}
+    for key, allowed in (("distro", ROS_DISTROS), ("pose", ROS_POSES)):
+        if key in data and data[key] not in allowed:
+            raise ScenarioError(
+                f"robots.{key}", f"must be one of {', '.join(allowed)}, got {_shown(data[key])}"
+            )
+        choices[key] = data.get(key)
+    timeout = data.get("pose_timeout")
+    return RobotSetup(
+        namespaces=namespaces,
+        domain=domain,
+        connect=connect,
+        distro=choices["distro"],
+        pose=choices["pose"],
+        pose_timeout=None if timeout is None else _positive(timeout, "robots.pose_timeout"),
+    )
 
 
 def _kinematics(value: Any, dim: int) -> Unicycle | None:

@@ -23,7 +23,7 @@ import numpy as np
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.messages import AgentState, Command, Event, TickRecord
+from shoal.bus.messages import AgentState, Command, Event, RobotsRecord, TickRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
@@ -33,7 +33,7 @@ from shoal.world.metrics import summarize
 from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
-from shoal.world.plant import Plant, PlantError
+from shoal.world.plant import Observed, Plant, PlantError
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Recorder
 from shoal.world.watch import LeaderWatch
@@ -111,6 +111,9 @@ class World(Declarations):
         self.scenario_out = bus.publisher(k.scenario)
         self._held += [*self.sensing_out.values(), self.tick_out, self.event_out]
         self._held += [self.summary_out, self.scenario_out]
+        self.robots_out = None if options.plant is None else bus.publisher(k.robots)
+        if self.robots_out is not None:
+            self._held.append(self.robots_out)
         self._held.append(bus.token(k.alive_world))
 
     @property
@@ -250,7 +253,9 @@ class World(Declarations):
             if plant is None:
                 positions, headings = move(positions, headings, velocities, bodies, s.dt)
             else:
-                plant.send(velocities, headings)
+                twists = plant.send(velocities, headings)
+                if self.robots_out is not None:
+                    self.robots_out.put(codec.encode_robots(_robots_record(k, seen, twists)))
             crowd = obstacles.advance(crowd)
             if self.aborted is not None:
                 break
@@ -422,6 +427,13 @@ def _commanded(
     for i, (_state, command) in reports.items():
         velocities[i - 1] = command.velocity
     return velocities
+
+
+def _robots_record(k: int, seen: Observed, twists: np.ndarray[Any, Any]) -> RobotsRecord:
+    """What the robots reported (their poses' ages) and were sent at tick ``k``."""
+    ages = () if seen.ages is None else tuple(seen.ages.tolist())
+    sent: list[tuple[float, ...]] = [tuple(t) for t in twists.tolist()]
+    return RobotsRecord(k, tuple(sent), ages)
 
 
 def _record(

@@ -108,6 +108,20 @@ class Unicycle:
         return speed_cap(self.limit(), self.lookahead, dt)
 
 
+@dataclass(frozen=True, slots=True)
+class RobotSetup:
+    """The scenario's ``robots:`` section (docs/ros2.md): which ROS 2 robots its agents are
+    when a run drives robots (``--robots ros2``), and how to reach them. A field the file leaves
+    out is None (``connect``: empty); the command line's options win over the file's."""
+
+    namespaces: tuple[str, ...] | None = None  # agent i's robot is namespaces[i - 1]
+    domain: int | None = None  # ROS_DOMAIN_ID, 0–232
+    connect: tuple[str, ...] = ()  # the robots' router, e.g. tcp/192.168.1.2:7447
+    distro: str | None = None  # humble, jazzy, kilted or rolling
+    pose: str | None = None  # odom (nav_msgs/Odometry) or pose (geometry_msgs/PoseStamped)
+    pose_timeout: float | None = None  # s: an older pose holds its robot still
+
+
 @dataclass(frozen=True)
 class Scenario:
     """Everything needed to run and to judge one run."""
@@ -132,6 +146,7 @@ class Scenario:
     source: str = ""  # the YAML text it was loaded from
     unicycle: Unicycle | None = None  # None: single integrators (the paper's model)
     position_error: float = 0.0  # m: e, the bound of every robot's own position estimate's error
+    robots: RobotSetup | None = None  # the ROS 2 robots its agents are (docs/ros2.md)
 
     @cached_property
     def position_biases(self) -> FloatArray | None:

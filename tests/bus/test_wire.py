@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError, WireError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.messages import AgentState, Command, Event, Sensing, TickRecord
+from shoal.bus.messages import AgentState, Command, Event, RobotsRecord, Sensing, TickRecord
 from shoal.bus.types import REACHED, ControlParams, Waypoints
 from shoal.bus.zconfig import zenoh_config
 from shoal.world.loader import builtin_names, load_scenario
@@ -125,6 +125,17 @@ def test_a_leaders_reach_travels_only_when_it_is_not_the_simulated_one() -> None
             codec.decode_config(broken)
 
 
+def test_a_robots_record_round_trips_and_a_short_one_is_refused() -> None:
+    r = RobotsRecord(7, ((0.2, 0.0, -0.5), (0.1, -0.1, 0.0)), (0.012, 0.003))
+    assert codec.decode_robots(codec.encode_robots(r)) == r
+    blind = RobotsRecord(7, r.twists)  # robots that cannot tell their poses' age
+    assert b"age" not in codec.encode_robots(blind)
+    assert codec.decode_robots(codec.encode_robots(blind)) == blind
+    for bad in (RobotsRecord(7, ((0.1, 0.2, 0.3),), (0.0, 0.1)), RobotsRecord(7, ((0.1, 0.2),))):
+        with pytest.raises(DecodeError, match="robots"):
+            codec.decode_robots(codec.encode_robots(bad))
+
+
 def test_unknown_clock_in_a_config_is_refused() -> None:
     data = codec.encode_config(load_scenario("default").agent_config(2), clock="sometimes")
     with pytest.raises(DecodeError, match=r"config\.clock"):
@@ -135,7 +146,8 @@ def test_unknown_clock_in_a_config_is_refused() -> None:
 @settings(max_examples=300, deadline=None)
 def test_random_bytes_never_escape_as_another_error(data: bytes) -> None:
     for decode in (codec.decode_state, codec.decode_sensing, codec.decode_report,
-                   codec.decode_tick, codec.decode_event, codec.decode_config):  # fmt: skip
+                   codec.decode_tick, codec.decode_event, codec.decode_config,
+                   codec.decode_robots):  # fmt: skip
         with pytest.raises(DecodeError):
             decode(data)
 
@@ -166,7 +178,7 @@ def _doc_row(kind: str) -> str:
 @pytest.mark.parametrize(
     ("kind", "table"),
     [("sensing", codec.SENSING), ("state", codec.STATE), ("cmd", codec.COMMAND),
-     ("tick", codec.TICK), ("event", codec.EVENT)],
+     ("tick", codec.TICK), ("event", codec.EVENT), ("robots", codec.ROBOTS)],
 )  # fmt: skip
 def test_the_docs_list_every_field_of_every_message_in_wire_order(kind: str, table: Any) -> None:
     """docs/wire.md's field list follows the codec's one table per message: every key, in the
@@ -174,7 +186,8 @@ def test_the_docs_list_every_field_of_every_message_in_wire_order(kind: str, tab
     row = _doc_row(kind)
     at = [row.find(f"`{f.key}`") for f in table]
     assert -1 not in at and at == sorted(at), [f.key for f in table]
-    message = {"sensing": Sensing, "state": AgentState, "tick": TickRecord, "event": Event}
+    message = {"sensing": Sensing, "state": AgentState, "tick": TickRecord, "event": Event,
+               "robots": RobotsRecord}  # fmt: skip
     if kind in message:
         assert [f.name for f in table] == [f.name for f in dataclasses.fields(message[kind])]
 

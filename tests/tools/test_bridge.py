@@ -69,13 +69,15 @@ def test_unicycles_report_their_axle_and_are_sent_the_arc_to_the_point(ros: RosS
         [1.0 + 0.1 * math.cos(0.5), 2.0 + 0.1 * math.sin(0.5)]
     )
     assert seen.stale == frozenset()
+    assert seen.ages is not None and all(0.0 <= a < 10.0 for a in seen.ages)
     u = np.array([[0.3, -0.1], [0.0, 0.2]])
-    bridge.send(u, seen.headings)
+    twists = bridge.send(u, seen.headings)
     with fake.arrived:
         assert fake.arrived.wait_for(lambda: len(fake.commands) == 2, 10.0)
     v, omega = wheel_command(u, seen.headings, 0.1, DT)
     for i in (1, 2):
         assert fake.commands[i] == [(v[i - 1], 0.0, omega[i - 1])]
+        assert tuple(twists[i - 1]) == fake.commands[i][0]  # what the log records: what went
     bridge.stop()
     with fake.arrived:
         assert fake.arrived.wait_for(lambda: all(len(c) == 2 for c in fake.commands.values()))
@@ -95,10 +97,10 @@ def test_holonomic_robots_are_sent_the_velocity_in_their_own_frame(ros: RosSessi
     bridge.wait_ready(10.0)
     seen = bridge.observe()
     assert seen.headings is None and list(seen.positions[0]) == [0.0, 0.0]
-    (ahead,) = bridge.commands(np.array([[0.0, 0.4]]), None)
-    assert rmw.read_twist(ahead) == pytest.approx((0.4, 0.0, 0.0), abs=1e-15)
-    (right,) = bridge.commands(np.array([[0.3, 0.0]]), None)  # +x is the robot's right
-    assert rmw.read_twist(right) == pytest.approx((0.0, -0.3, 0.0), abs=1e-15)
+    (ahead,) = bridge.twists(np.array([[0.0, 0.4]]), None)
+    assert tuple(ahead) == pytest.approx((0.4, 0.0, 0.0), abs=1e-15)
+    (right,) = bridge.twists(np.array([[0.3, 0.0]]), None)  # +x is the robot's right
+    assert tuple(right) == pytest.approx((0.0, -0.3, 0.0), abs=1e-15)
     bridge.close()
 
 

@@ -63,7 +63,11 @@ SPECS: list[tuple[ChildSpec, click.Command]] = [
     (AgentSpec(agent_id=7, drop_rate=0.25, drop_seed=3, secure=SECURE, **COMMON), agent),
     (
         GuardSpec(
-            count=5, ros_connect=("tcp/10.0.0.9:7447",), ros_domain=3, ros_prefix="tb", **COMMON
+            namespaces=("/tb1", "/lab/tb2"),
+            ros_connect=("tcp/10.0.0.9:7447",),
+            ros_domain=3,
+            ros_distro="humble",
+            **COMMON,
         ),
         guard,
     ),

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 from conftest import client, processes_mentioning, shoal_run, unique
 
 from shoal.tools.campaign.fields import FieldOptions, make_field
@@ -232,14 +233,18 @@ def test_robots_stop_within_a_second_when_the_world_is_killed(router: str, tmp_p
     command for 60 s; the world is SIGKILLed while they move, so it sends nothing. The guard
     `shoal run` started beside it sends every robot a zero Twist (when the world's token
     vanishes, or when `shoal run`, seeing the world gone, stops it, whichever is first): all
-    report standing within 1 s (measured, printed: 16–34 ms on an unloaded machine)."""
+    report standing within 1 s (measured, printed: 16–34 ms on an unloaded machine).
+    The robots are named by the scenario's ``robots:`` section alone (namespaces, domain,
+    router): the world, the guard and ``shoal robots`` all find them from it."""
     field = make_field(load_scenario("obstacles"), 3, options=FieldOptions(length=8.0, tail=2.0))
-    path = tmp_path / "field.yaml"
-    path.write_text(field.source, encoding="utf-8")
     ros_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    names = [f"/lab/tb_{c}" for c in "abcde"]
+    section = {"namespaces": names, "domain": 4, "connect": [ros_endpoint]}
+    path = tmp_path / "field.yaml"
+    path.write_text(field.source + yaml.safe_dump({"robots": section}), encoding="utf-8")
     fleet = subprocess.Popen(
         [sys.executable, "-m", "shoal.tools", "robots", str(path), "--listen", ros_endpoint,
-         "--cmd-timeout", "60", "--domain", "4"],
+         "--cmd-timeout", "60"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     run = unique("guard")
@@ -249,11 +254,10 @@ def test_robots_stop_within_a_second_when_the_world_is_killed(router: str, tmp_p
         odom = Odometry()
         with client(ros_endpoint) as session:
             node = RosSession(session, domain=4).node("test_watch")
-            for i in range(1, 6):
-                node.subscriber(f"/robot{i}/odom", rmw.ODOMETRY, odom.listener(i))
+            for i, name in enumerate(names, start=1):
+                node.subscriber(f"{name}/odom", rmw.ODOMETRY, odom.listener(i))
             proc = shoal_run(path, router, tmp_path / "run.mcap", "--clock", "realtime",
-                             "--robots", "ros2", "--ros-connect", ros_endpoint, "--ros-domain",
-                             "4", "--json", "--no-foxglove", run=run)  # fmt: skip
+                             "--robots", "ros2", "--json", "--no-foxglove", run=run)  # fmt: skip
 
             def moving(o: Odometry) -> bool:
                 return any(o.heard.get(i) and o.heard[i][-1][1] != 0.0 for i in range(1, 6))

@@ -446,6 +446,18 @@ def test_a_formation_of_robots_shoal_did_not_write_reaches_its_goal(
     assert summary["robot_poses_dropped"] == 0 and summary["robot_poses"] > 0
     assert summary["robot_commands"] >= 5 * field.steps
     assert all(heard and heard[-1] == (0.0, 0.0, 0.0) for heard in robots.heard)
+    # the log records each tick what the robots were sent, as they heard it, and their poses' age
+    from shoal.bus import codec
+    from shoal.tools.log.reader import iter_channel
+
+    logged = [codec.decode_robots(d) for _t, d, _ns in iter_channel(tmp_path / "r.mcap",
+                                                                    "/world/robots")]  # fmt: skip
+    assert [r.tick for r in logged] == list(range(len(logged))) and len(logged) >= field.steps
+    for i, heard in enumerate(robots.heard):
+        sent = [r.twists[i] for r in logged]
+        assert heard[: len(sent)] == pytest.approx(sent, abs=1e-12)
+    ages_ms = [1e3 * max(r.ages) for r in logged]
+    assert 0.0 < max(ages_ms) <= summary["pose_age_max_ms"] + 1e-9  # the last look is after
     print(f"\npartner robots: {summary['robot_poses']} poses heard, arrived at "
           f"{summary['arrival_time']} s, clearance {summary['min_clearance']:.4f} m, "
           f"separation {summary['min_interagent_distance']:.4f} m, pose age p99 "

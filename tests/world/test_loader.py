@@ -333,6 +333,20 @@ FIELD_CASES = [
      "must not be zero"),
     (edit("leader.waypoints", []), "leader.waypoints", "needs at least one waypoint"),
     (edit("control", [1, 2]), "control", "must be a mapping"),
+    (edit("robots", {"namespaces": ["a", "b"]}), "robots.namespaces",
+     "needs one per agent \\(4\\), got 2"),
+    (edit("robots", {"namespaces": ["a", "b", "1c", "d"]}), "robots.namespaces (agent 3)",
+     "must be a ROS 2 name"),
+    (edit("robots", {"namespaces": ["a", "b", "/a", "d"]}), "robots.namespaces",
+     "/a is given to two agents"),
+    (edit("robots", {"domain": 300}), "robots.domain", "a ROS 2 domain id is 0–232, got 300"),
+    (edit("robots", {"distro": "iron"}), "robots.distro",
+     "must be one of humble, jazzy, kilted, rolling, got 'iron'"),
+    (edit("robots", {"pose": "tf"}), "robots.pose", "must be one of odom, pose"),
+    (edit("robots", {"pose_timeout": 0}), "robots.pose_timeout", "must be > 0"),
+    (edit("robots", {"connect": [7447]}), "robots.connect", "an endpoint is a string"),
+    (edit("robots", {"namespace": ["a"]}), "robots.namespace", "unknown field"),
+    (edit("robots", [1]), "robots", "must be a mapping"),
 ]  # fmt: skip
 
 

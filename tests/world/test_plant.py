@@ -49,13 +49,15 @@ class Robots:
 
     def observe(self) -> Observed:
         self.observed.append(self.positions.copy())
-        return Observed(self.positions.copy(), None, self.stale)
+        ages = np.full(len(self.positions), 0.001 * len(self.observed))
+        return Observed(self.positions.copy(), None, self.stale, ages)
 
-    def send(self, velocities: Any, headings: Any) -> None:
+    def send(self, velocities: Any, headings: Any) -> Any:
         if self.fail_after is not None and len(self.sent) >= self.fail_after:
             raise RuntimeError("the robots' link broke")
         self.sent.append(velocities.copy())
         self.positions = self.positions + self.dt * velocities
+        return np.column_stack([velocities, -velocities[:, 0]])  # whatever the robots took
 
     def stop(self) -> None:
         self.stops += 1
@@ -77,6 +79,13 @@ def test_the_world_records_where_the_robots_are_and_sends_them_each_tick() -> No
     assert np.array_equal(traj.positions[: scn.steps], np.asarray(robots.observed[: scn.steps]))
     assert np.array_equal(traj.positions[0], scn.initial_positions + 0.01)
     assert robots.stops >= 1 and any(np.abs(v).max() > 0 for v in robots.sent)
+    # each tick the log has what the robots reported (their poses' ages) and were sent
+    records = [codec.decode_robots(p) for k, p in bus.published if k == Keys(RUN).robots]
+    assert [r.tick for r in records] == list(range(len(robots.sent)))
+    for k, r in enumerate(records):
+        assert r.ages == (0.001 * (k + 1),) * scn.n
+        sent = robots.sent[k]
+        assert r.twists == tuple((x, y, -x) for x, y in sent.tolist())
 
 
 def test_a_robot_whose_pose_is_stale_is_held_still_and_said_so() -> None:

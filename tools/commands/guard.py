@@ -44,7 +44,7 @@ def guard(**params: Any) -> None:
     ):
         ros = RosSession(ros_session, spec.ros_domain, spec.ros_distro)
         node = ros.node("shoal_guard")
-        names = [f"/{spec.ros_prefix}{i}" for i in range(1, spec.count + 1)]
+        names = list(spec.namespaces)
         stops = [node.publisher(f"{ns}/cmd_vel", rmw.TWIST) for ns in names]
         inbox = Inbox()
         held = watch_presence(session, keys.alive_world, inbox)

@@ -11,8 +11,9 @@ from shoal.bus.runtime import announce_ready, exit_on_signals
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.procs.children import RobotsSpec, click_options
 from shoal.tools.procs.session import open_session, session_config
+from shoal.tools.ros2.config import ros_config
 from shoal.tools.ros2.fleet import Fleet, drivers_for
-from shoal.tools.ros2.node import RMW_ZENOHD, RosSession
+from shoal.tools.ros2.node import RosSession
 from shoal.tools.ros2.rmw import RmwError
 
 
@@ -21,7 +22,8 @@ from shoal.tools.ros2.rmw import RmwError
 def robots(**params: Any) -> None:
     """Start simulated ROS 2 robots for SCENARIO's agents until SIGINT/SIGTERM.
 
-    Robot i (namespace /robot<i>) starts where agent i does, takes geometry_msgs/msg/Twist on
+    Robot i (namespace /robot<i>, or as the scenario's robots: section names it) starts where
+    agent i does, takes geometry_msgs/msg/Twist on
     /robot<i>/cmd_vel (a unicycle: linear x and angular z, clamped to the scenario's limits; a
     holonomic robot: linear x and y) and publishes nav_msgs/msg/Odometry on /robot<i>/odom,
     over rmw_zenoh's keys, liveliness tokens and attachments: a ROS 2 node on rmw_zenoh sees
@@ -38,20 +40,25 @@ def robots(**params: Any) -> None:
         drivers = drivers_for(scn, spec.count, spec.cmd_timeout)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="SCENARIO / --count") from None
+    ros_conf = ros_config(
+        scn, connect=spec.connect, domain=spec.domain, distro=spec.distro, prefix=spec.prefix
+    )
     if spec.listen:
         conf = session_config("router", listen=spec.listen, connect=spec.connect)
     else:
-        conf = session_config("client", connect=spec.connect or (RMW_ZENOHD,), connect_ms=5_000)
-    names = [f"/{spec.prefix}{i + 1}" for i in range(len(drivers))]
+        conf = session_config("client", connect=ros_conf.connect, connect_ms=5_000)
+    names = list(ros_conf.namespaces[: len(drivers)])
     with open_session(conf, "robots") as session:
         try:
-            ros = RosSession(session, spec.domain, spec.distro)
+            ros = RosSession(session, ros_conf.domain, ros_conf.distro)
             fleet = Fleet(ros, names, drivers, rate=spec.rate, latency=spec.latency_ms / 1e3,
                           jitter=spec.jitter_ms / 1e3, seed=spec.seed)  # fmt: skip
         except RmwError as exc:
             raise click.BadParameter(str(exc), param_hint="--prefix") from None
         kinds = "unicycles" if not drivers[0].holonomic else "holonomic robots"
-        announce_ready(f"robots {len(drivers)} {kinds} {names[0]}…{names[-1]} domain {spec.domain}")
+        announce_ready(
+            f"robots {len(drivers)} {kinds} {names[0]}…{names[-1]} domain {ros_conf.domain}"
+        )
         try:
             fleet.run(threading.Event())  # until a signal turns into SystemExit
         finally:

@@ -66,18 +66,22 @@ def robots_of(spec: WorldSpec, scn: Scenario) -> Iterator[Plant | None]:
         raise click.BadParameter(f"ROS 2 ground robots drive in the plane; {scn.name} is "
                                  f"{scn.dim}-D", param_hint="--robots")  # fmt: skip
     from shoal.tools.ros2.bridge import Ros2Robots
-    from shoal.tools.ros2.node import RMW_ZENOHD, RosSession
+    from shoal.tools.ros2.config import ros_config
+    from shoal.tools.ros2.node import RosSession
     from shoal.tools.ros2.rmw import ODOMETRY, POSE_STAMPED, RmwError
 
-    endpoints = spec.ros_connect or (RMW_ZENOHD,)
+    ros_conf = ros_config(
+        scn, connect=spec.ros_connect, domain=spec.ros_domain, distro=spec.ros_distro,
+        prefix=spec.ros_prefix, pose=spec.ros_pose, pose_timeout=spec.pose_timeout,
+    )  # fmt: skip
+    endpoints = ros_conf.connect
     conf = session_config("client", connect=endpoints, connect_ms=PROMPT_CONNECT_MS)
     with open_session(conf, f"the ROS 2 router at {' '.join(endpoints)}") as session:
         try:
-            ros = RosSession(session, spec.ros_domain, spec.ros_distro)
-            names = [f"/{spec.ros_prefix}{i}" for i in range(1, scn.n + 1)]
-            pose = ODOMETRY if spec.ros_pose == "odom" else POSE_STAMPED
-            robots = Ros2Robots(ros, names, scn.lookaheads, scn.dt, pose_type=pose,
-                                pose_timeout=spec.pose_timeout)  # fmt: skip
+            ros = RosSession(session, ros_conf.domain, ros_conf.distro)
+            pose = ODOMETRY if ros_conf.pose == "odom" else POSE_STAMPED
+            robots = Ros2Robots(ros, list(ros_conf.namespaces), scn.lookaheads, scn.dt,
+                                pose_type=pose, pose_timeout=ros_conf.pose_timeout)  # fmt: skip
         except RmwError as exc:
             raise click.BadParameter(str(exc), param_hint="--ros-prefix") from None
         try:

@@ -21,6 +21,7 @@ import click
 from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
 from shoal.bus.types import Clock, SafetyLayer
+from shoal.world.loader import ROS_DISTROS, ROS_POSES
 
 F = TypeVar("F", bound=Callable[..., Any])
 _ENUMS: dict[str, type[enum.Enum]] = {  # fields' choices (None where the default is)
@@ -224,32 +225,37 @@ class LoggerSpec(ClientSpec):
     force: bool = option("--force", default=False, is_flag=True, help="Overwrite OUT if it exists.")
 
 
+_FROM_SCENARIO = "[default: the scenario's robots: section, else {}]"
+
+
 def _ros_connect() -> Any:
     return option(
         "--ros-connect", default=(), multiple=True,
         help="--robots ros2: the ROS 2 router (rmw_zenohd, or `shoal robots --listen`) "
-        "[default: tcp/127.0.0.1:7447].",
+        + _FROM_SCENARIO.format("tcp/127.0.0.1:7447"),
     )  # fmt: skip
 
 
 def _ros_domain() -> Any:
     return option(
-        "--ros-domain", default=0, type=click.IntRange(0, 232), help="--robots ros2: domain id."
-    )
+        "--ros-domain", default=None, type=click.IntRange(0, 232),
+        help="--robots ros2: domain id " + _FROM_SCENARIO.format(0),
+    )  # fmt: skip
 
 
 def _ros_distro() -> Any:
     return option(
-        "--ros-distro", default="jazzy",
-        type=click.Choice(["humble", "jazzy", "kilted", "rolling"]),
-        help="--robots ros2: the robots' ROS 2 distribution.",
+        "--ros-distro", default=None, type=click.Choice(list(ROS_DISTROS)),
+        help="--robots ros2: the robots' ROS 2 distribution " + _FROM_SCENARIO.format("jazzy"),
     )  # fmt: skip
 
 
 def _ros_prefix() -> Any:
     return option(
-        "--ros-prefix", default="robot", help="--robots ros2: agent i's robot is /<prefix><i>."
-    )
+        "--ros-prefix", default=None,
+        help="--robots ros2: agent i's robot is /<prefix><i> [default: the scenario's robots: "
+        "namespaces, else /robot<i>].",
+    )  # fmt: skip
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -310,17 +316,18 @@ class WorldSpec(ClientSpec):
         "/<prefix><i>/odom, its command as a Twist on /<prefix><i>/cmd_vel.",
     )  # fmt: skip
     ros_connect: tuple[str, ...] = _ros_connect()
-    ros_domain: int = _ros_domain()
-    ros_distro: str = _ros_distro()
-    ros_prefix: str = _ros_prefix()
-    ros_pose: str = option(
-        "--ros-pose", default="odom", type=click.Choice(["odom", "pose"]),
+    ros_domain: int | None = _ros_domain()
+    ros_distro: str | None = _ros_distro()
+    ros_prefix: str | None = _ros_prefix()
+    ros_pose: str | None = option(
+        "--ros-pose", default=None, type=click.Choice(list(ROS_POSES)),
         help="--robots ros2: odom, nav_msgs/msg/Odometry on /<ns>/odom; pose, a motion "
-        "capture's geometry_msgs/msg/PoseStamped on /<ns>/pose.",
+        "capture's geometry_msgs/msg/PoseStamped on /<ns>/pose " + _FROM_SCENARIO.format("odom"),
     )  # fmt: skip
-    pose_timeout: float = option(
-        "--pose-timeout", default=0.5, type=click.FloatRange(min=0.01),
-        help="--robots ros2: seconds after which a robot whose pose has not come is held still.",
+    pose_timeout: float | None = option(
+        "--pose-timeout", default=None, type=click.FloatRange(min=0.01),
+        help="--robots ros2: seconds after which a robot whose pose has not come is held still "
+        + _FROM_SCENARIO.format(0.5),
     )  # fmt: skip
 
 
@@ -377,18 +384,19 @@ class RobotsSpec(ChildSpec):
         "--listen", "-l", default=(), multiple=True,
         help="Be the router instead, listening here (no rmw_zenohd needed).",
     )  # fmt: skip
-    domain: int = option(
-        "--domain", default=0, type=click.IntRange(0, 232), envvar="ROS_DOMAIN_ID",
-        help="ROS 2 domain id.",
+    domain: int | None = option(
+        "--domain", default=None, type=click.IntRange(0, 232), envvar="ROS_DOMAIN_ID",
+        help="ROS 2 domain id " + _FROM_SCENARIO.format(0),
     )  # fmt: skip
-    distro: str = option(
-        "--distro", default="jazzy", type=click.Choice(["humble", "jazzy", "kilted", "rolling"]),
-        help="ROS 2 distribution the robots run (Humble's keys carry no type hash).",
+    distro: str | None = option(
+        "--distro", default=None, type=click.Choice(list(ROS_DISTROS)),
+        help="ROS 2 distribution the robots run (Humble's keys carry no type hash) "
+        + _FROM_SCENARIO.format("jazzy"),
     )  # fmt: skip
-    prefix: str = option(
-        "--prefix", default="robot",
+    prefix: str | None = option(
+        "--prefix", default=None,
         help="Robot i's namespace is /<prefix><i>: its topics /<prefix><i>/cmd_vel and "
-        "/<prefix><i>/odom.",
+        "/<prefix><i>/odom [default: the scenario's robots: namespaces, else /robot<i>].",
     )  # fmt: skip
     rate: float = option(
         "--rate", default=50.0, type=click.FloatRange(min=1.0, max=1000.0),
@@ -414,8 +422,18 @@ class GuardSpec(ClientSpec):
     """``shoal guard``: stops run RUN's ROS 2 robots if its world goes away."""
 
     command: ClassVar[str] = "guard"
-    count: int = option("--count", "-n", type=click.IntRange(min=1), help="Robots 1–N.")
-    ros_connect: tuple[str, ...] = _ros_connect()
-    ros_domain: int = _ros_domain()
-    ros_distro: str = _ros_distro()
-    ros_prefix: str = _ros_prefix()
+    namespaces: tuple[str, ...] = option(
+        "--namespace", multiple=True, required=True,
+        help="A robot to stop, by its namespace (/robot1); repeat for each.",
+    )  # fmt: skip
+    ros_connect: tuple[str, ...] = option(
+        "--ros-connect", default=(), multiple=True,
+        help="The ROS 2 router [default: tcp/127.0.0.1:7447].",
+    )  # fmt: skip
+    ros_domain: int = option(
+        "--ros-domain", default=0, type=click.IntRange(0, 232), help="Domain id."
+    )
+    ros_distro: str = option(
+        "--ros-distro", default="jazzy", type=click.Choice(list(ROS_DISTROS)),
+        help="The robots' ROS 2 distribution.",
+    )  # fmt: skip

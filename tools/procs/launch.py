@@ -36,6 +36,7 @@ from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
 from shoal.tools.progress import progress_bar
+from shoal.tools.ros2.config import ros_config
 from shoal.world.scenario import Scenario
 
 
@@ -147,9 +148,13 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
             start_timeout=plan.start_timeout, **plan.robots, **common,
         )  # fmt: skip
         if world.robots == "ros2":  # stops the robots if the world dies without doing so
+            ros = ros_config(  # the robots the world will drive, as it resolves them
+                plan.scenario, connect=world.ros_connect, domain=world.ros_domain,
+                distro=world.ros_distro, prefix=world.ros_prefix,
+            )  # fmt: skip
             guarding = GuardSpec(
-                count=plan.agents, ros_connect=world.ros_connect, ros_domain=world.ros_domain,
-                ros_distro=world.ros_distro, ros_prefix=world.ros_prefix, **common,
+                namespaces=ros.namespaces, ros_connect=ros.connect, ros_domain=ros.domain,
+                ros_distro=ros.distro, **common,
             )  # fmt: skip
             guard = swarm.spawn("guard", "guard", guarding.argv(), ready_pipe=True)
             swarm.wait_ready(guard, plan.start_timeout)

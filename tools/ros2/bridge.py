@@ -94,41 +94,42 @@ class Ros2Robots:
         now = time.monotonic()
         with self._arrived:
             poses = list(self.poses)
-            ages = [now - t for t in self.heard_at]
+            ages = np.array([now - t for t in self.heard_at])
         if any(p is None for p in poses):
             raise PlantError("observe() before every robot reported a pose")
         body = np.array([(p[0], p[1]) for p in poses if p is not None])
         yaw = np.array([p[2] for p in poses if p is not None])
-        stale = frozenset(i + 1 for i, age in enumerate(ages) if age > self.pose_timeout)
-        self.ages.append(max(ages))
+        stale = frozenset(int(i) + 1 for i in np.flatnonzero(ages > self.pose_timeout))
+        self.ages.append(float(ages.max()))
         self.yaw = yaw
         if self.lookaheads is None:
-            return Observed(body, None, stale)
+            return Observed(body, None, stale, ages)
         ell = self.lookaheads[:, None]
         points = body + ell * np.stack([np.cos(yaw), np.sin(yaw)], axis=-1)
-        return Observed(points, yaw, stale)
+        return Observed(points, yaw, stale, ages)
 
-    def send(self, velocities: FloatArray, headings: FloatArray | None) -> None:
-        for i, payload in enumerate(self.commands(velocities, headings)):
-            self._cmd[i].put(payload)
+    def send(self, velocities: FloatArray, headings: FloatArray | None) -> FloatArray:
+        twists = self.twists(velocities, headings)
+        for i, (vx, vy, wz) in enumerate(twists.tolist()):
+            self._cmd[i].put(rmw.twist((vx, vy), wz))
             self.sent += 1
+        return twists
 
-    def commands(self, velocities: FloatArray, headings: FloatArray | None) -> list[bytes]:
-        """Each robot's Twist for a tick of ``velocities`` (its agent's point), from the
-        ``headings`` of unicycles and the last observed yaw of holonomic robots."""
-        out = []
-        for i in range(self.n):
-            u = velocities[i]
-            ell = 0.0 if self.lookaheads is None else float(self.lookaheads[i])
-            if ell > 0.0:
+    def twists(self, velocities: FloatArray, headings: FloatArray | None) -> FloatArray:
+        """(n, 3) each robot's Twist (linear x, linear y, angular z) for a tick of
+        ``velocities`` (its agent's point): a unicycle's (v, ω) from its heading (world/
+        unicycle.py's ``wheel_command``), a holonomic robot's velocity in its frame, from its
+        last observed yaw."""
+        u = np.asarray(velocities, dtype=np.float64)
+        c, s = np.cos(self.yaw), np.sin(self.yaw)  # the robot's frame: R(−yaw)·u
+        out = np.stack([c * u[:, 0] + s * u[:, 1], -s * u[:, 0] + c * u[:, 1], np.zeros_like(c)], 1)
+        if self.lookaheads is not None:
+            wheeled = self.lookaheads > 0.0
+            if wheeled.any():
                 assert headings is not None
-                v, omega = wheel_command(u[None, :], headings[i : i + 1], ell, self.dt)
-                out.append(rmw.twist((float(v[0]), 0.0), float(omega[0])))
-                continue
-            yaw = float(self.yaw[i])
-            c, s = math.cos(yaw), math.sin(yaw)  # the robot's frame: R(−yaw)·u
-            ux, uy = float(u[0]), float(u[1])
-            out.append(rmw.twist((c * ux + s * uy, -s * ux + c * uy), 0.0))
+                ell = self.lookaheads[wheeled]
+                v, omega = wheel_command(u[wheeled], headings[wheeled], ell, self.dt)
+                out[wheeled] = np.stack([v, np.zeros_like(v), omega], axis=1)
         return out
 
     def stop(self) -> None:
