@@ -454,8 +454,8 @@ def test_a_formation_of_robots_shoal_did_not_write_reaches_its_goal(
                                                                     "/world/robots")]  # fmt: skip
     assert [r.tick for r in logged] == list(range(len(logged))) and len(logged) >= field.steps
     for i, heard in enumerate(robots.heard):
-        sent = [r.twists[i] for r in logged]
-        assert heard[: len(sent)] == pytest.approx(sent, abs=1e-12)
+        sent = np.array([r.twists[i] for r in logged])
+        assert np.allclose(np.array(heard[: len(sent)]), sent, rtol=0.0, atol=1e-12)
     ages_ms = [1e3 * max(r.ages) for r in logged]
     assert 0.0 < max(ages_ms) <= summary["pose_age_max_ms"] + 1e-9  # the last look is after
     print(f"\npartner robots: {summary['robot_poses']} poses heard, arrived at "
