@@ -322,6 +322,8 @@ class Controller:
                 half_separation=p.separation / 2.0,
                 speed_limit=p.speed_limit,
                 previous=None if self._in_band(lag) else memory.heading,
+                limits=cfg.limits,
+                heading=sensing.heading,
             )
             if result.active:
                 out, filtered = result.velocity, True

@@ -25,6 +25,7 @@ from shoal.bus.types import (
     AgentConfig,
     Clock,
     ControlParams,
+    LimitSide,
     PathSpec,
     Reshape,
     Safety,
@@ -259,6 +260,7 @@ SENSING = (
     WireField("aid", "agent_ids", _ints),
     WireField("ap", "agent_positions", _vectors),
     WireField("mv", "movers", _movers, sparse=True),
+    WireField("hd", "heading", _float, sparse=True),  # a unicycle's, when not 0
 )
 _encode_sensing = encoder(SENSING)
 _SENSING_FIELDS = itemgetter(*(f.key for f in SENSING if not f.sparse))
@@ -272,10 +274,14 @@ def decode_sensing(data: bytes) -> Sensing:
     m = _unpack("sensing", data)
     fast = _sensing_fast(m)
     if fast is not None:
-        if "mv" not in m:
+        if "mv" not in m and "hd" not in m:
             return fast
-        s = dataclasses.replace(fast, movers=_movers(m["mv"], "sensing.mv"))
-        _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
+        s = fast
+        if "mv" in m:
+            s = dataclasses.replace(s, movers=_movers(m["mv"], "sensing.mv"))
+            _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
+        if "hd" in m:
+            s = dataclasses.replace(s, heading=_float(m["hd"], "sensing.hd"))
         return s
     s = Sensing(**_decode_fields(SENSING, m))
     if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
@@ -464,8 +470,20 @@ def encode_config(c: AgentConfig, *, clock: Clock = Clock.LOCKSTEP) -> bytes:
             "formation_radius": c.formation_radius,
             "path": _path_body(c.path),
             "reshapes": [[r.tick, r.scale, r.rotate] for r in c.reshapes],
+            **({"limits": [list(side) for side in c.limits]} if c.limits else {}),
         },
     )
+
+
+def _limits(value: Any, where: str) -> tuple[LimitSide, ...]:
+    """``limits``: [[n_x, n_y, c, nearest], ...], a unicycle's polygon of point velocities."""
+    out = []
+    for k, item in enumerate(_list(value, where)):
+        side = _floats(item, f"{where}[{k}]")
+        if len(side) != 4:
+            raise DecodeError(f"{where}[{k}]: expected [n_x, n_y, c, nearest]")
+        out.append((side[0], side[1], side[2], side[3]))
+    return tuple(out)
 
 
 def decode_config(data: bytes) -> AgentConfig:
@@ -511,6 +529,7 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
         formation_radius=_get(m, "formation_radius", _float),
         path=_path_from(m.get("path"), "config.path"),
         reshapes=tuple(reshapes),
+        limits=_limits(m.get("limits", []), "config.limits"),
     )
     problem = config_problem(config)
     if problem is not None:

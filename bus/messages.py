@@ -58,6 +58,8 @@ class Sensing:
         at the start of this same tick, (q, dim) metres, in id order (the safety filter's rows).
     movers : the moving obstacles within the sensing radius, in obstacle-id order; only the
         safety filter acts on them (docs/people.md).
+    heading : rad, a unicycle's heading at the start of the tick (0 for a single integrator):
+        the safety filter meets its limits as rows for it (docs/safety.md, Unicycles).
     """
 
     tick: Final[int]
@@ -68,6 +70,7 @@ class Sensing:
     agent_ids: Final[tuple[int, ...]]
     agent_positions: Final[tuple[Vector, ...]]
     movers: Final[tuple[Mover, ...]]
+    heading: Final[float]
 
     def __init__(
         self,
@@ -79,6 +82,7 @@ class Sensing:
         agent_ids: tuple[int, ...] = (),
         agent_positions: tuple[Vector, ...] = (),
         movers: tuple[Mover, ...] = (),
+        heading: float = 0.0,
     ) -> None:
         self.tick = tick
         self.position = position
@@ -88,6 +92,7 @@ class Sensing:
         self.agent_ids = agent_ids
         self.agent_positions = agent_positions
         self.movers = movers
+        self.heading = heading
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)

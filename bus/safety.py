@@ -33,7 +33,7 @@ from typing import Final
 
 from shoal.bus.geometry import right_of, vdot
 from shoal.bus.messages import Mover, Sensing, picklable
-from shoal.bus.types import Vector
+from shoal.bus.types import LimitSide, Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
 # only keeps an exactly-on-the-boundary solution from failing its own check.
@@ -170,6 +170,47 @@ def rows_for(
     return rows
 
 
+def limit_rows(sides: Sequence[LimitSide], heading: float, speed: float, dt: float) -> list[Row]:
+    """The rows of a unicycle's limits at ``heading`` (rad): each side n·w ≤ c of its polygon
+    of point velocities in the body frame (world/limits.py) turned into the world frame,
+    −R(θ)n · u · dt ≥ −c·dt. Only the sides whose edge comes nearer than ``speed`` (m/s) are
+    built: a projection onto a set that holds 0 is never faster than what it projects, and
+    a velocity within that speed outside the polygon leaves it through one of those edges, so
+    the others cannot be active (exact, as :func:`rows_for`'s ``reach``). ``sides`` come
+    nearest first."""
+    out: list[Row] = []
+    if not sides or sides[0][3] > speed:
+        return out
+    cos, sin = math.cos(heading), math.sin(heading)
+    for nx, ny, c, nearest in sides:  # nearest first (world/limits.py)
+        if nearest > speed:
+            break
+        out.append(Row((-(cos * nx - sin * ny), -(sin * nx + cos * ny)), -c * dt))
+    return out
+
+
+def cap_to_limits(velocity: Vector, sides: Sequence[LimitSide], heading: float) -> Vector:
+    """``velocity`` scaled down onto a unicycle's polygon of point velocities (its body frame,
+    at ``heading``, rad) if it is outside it: the speed limit in its direction, as
+    :func:`cap_speed` for a disc; unchanged if inside."""
+    speed = math.hypot(velocity[0], velocity[1])
+    if not sides or sides[0][3] > speed:
+        return velocity  # within every edge's reach: inside (see limit_rows)
+    cos, sin = math.cos(heading), math.sin(heading)
+    wx = cos * velocity[0] + sin * velocity[1]
+    wy = -sin * velocity[0] + cos * velocity[1]
+    k = 1.0
+    for nx, ny, c, nearest in sides:  # nearest first: the ray leaves through an edge nearer
+        if nearest > speed:
+            break
+        rate = nx * wx + ny * wy
+        if rate > c:
+            k = min(k, c / rate)
+    if k == 1.0:
+        return velocity
+    return (velocity[0] * k, velocity[1] * k)
+
+
 def satisfies(velocity: Sequence[float], rows: Sequence[Row], dt: float) -> bool:
     """Every row met by ``velocity`` held for ``dt`` s, within :data:`TOLERANCE` m."""
     return all(vdot(r.normal, velocity) * dt >= r.bound - TOLERANCE for r in rows)
@@ -202,6 +243,8 @@ def project(
     near = [r for r in rows if (r.bound / dt) ** 2 < speed2 or r.bound >= 0.0]
     if satisfies(nominal, near, dt):
         return Filtered(nominal, active=False)
+    if radius is None:
+        near = _within_reach(nominal, near, dt)
     dim = len(nominal)
     best: Vector | None = None
     best_dist = math.inf
@@ -217,6 +260,28 @@ def project(
     if best is None:
         return Filtered(tuple([0.0 for _ in nominal]), active=True, fallback=True)
     return Filtered(best, active=True)
+
+
+def _within_reach(nominal: Vector, rows: list[Row], dt: float) -> list[Row]:
+    """The rows that can be active in the projection of ``nominal``, every bound ≤ 0 (0 is
+    feasible): those whose plane comes within r of v̂, where r = (1 − t)·‖v̂‖ for the largest
+    t ≤ 1 that keeps t·v̂ feasible. The answer is no farther than r from v̂ (t·v̂ is a
+    candidate), so the projection onto the rows kept lies in that ball; a row dropped has its
+    plane outside the ball and t·v̂ on its feasible side, so the ball, and the answer, are on
+    that side too: the projection onto the rows kept is the projection onto all (and the same
+    active set, the same bits). A unicycle's limits are many nearly parallel rows, of which
+    this keeps the two or three by the nominal."""
+    t = 1.0
+    slopes = []
+    for r in rows:
+        if r.bound > 0.0:
+            return rows  # 0 is not feasible: no candidate on the way to it
+        rate = vdot(r.normal, nominal)
+        slopes.append(rate)
+        if rate < 0.0:
+            t = min(t, r.bound / (dt * rate))
+    reach2 = (1.0 - t) ** 2 * vdot(nominal, nominal) * (1.0 + 1e-9) + 1e-24
+    return [r for r, rate in zip(rows, slopes) if (rate - r.bound / dt) ** 2 <= reach2]
 
 
 def _on_planes(nominal: Vector, chosen: Sequence[Row], dt: float) -> Vector | None:
@@ -407,6 +472,8 @@ def safe_velocity(
     previous: Vector | None = None,
     extra: Sequence[Row] = (),
     agents: bool = True,
+    limits: Sequence[LimitSide] = (),
+    heading: float = 0.0,
 ) -> Filtered:
     """The whole filter of one agent: cap the nominal at ``speed_limit`` (m/s), project it onto
     the rows of ``sensing``, and where that leaves the agent pressed against a row, project the
@@ -420,21 +487,30 @@ def safe_velocity(
     unchanged.
 
     ``extra`` rows are met as well (a robot's own layer adds its cells from a common snapshot,
-    world/onboard.py); ``agents`` False leaves out the rows of the agents in ``sensing``."""
+    world/onboard.py); ``agents`` False leaves out the rows of the agents in ``sensing``.
+    ``limits``: a unicycle's polygon of point velocities in its body frame, met as rows at its
+    ``heading`` (rad; :func:`limit_rows`), so the (v, ω) it holds keeps its speed, turn-rate and
+    wheel limits (docs/safety.md, Unicycles)."""
     capped = cap_speed(nominal, speed_limit)
-    reach = math.hypot(*capped) * dt
+    if limits:
+        capped = cap_to_limits(capped, limits, heading)
+    speed = math.hypot(*capped)
     if not agents:
         sensing = dataclasses.replace(sensing, agent_ids=(), agent_positions=())
     rows = rows_for(
-        sensing, agent_id, margin=margin, half_separation=half_separation, reach=reach, dt=dt
+        sensing, agent_id, margin=margin, half_separation=half_separation, reach=speed * dt, dt=dt
     )
     rows += extra
+    if limits:
+        rows += limit_rows(limits, heading, speed, dt)
     if any(r.bound > 0.0 for r in rows):  # a moving obstacle within reach of the guard
         every = rows_for(
             sensing, agent_id, margin=margin, half_separation=half_separation,
             reach=speed_limit * dt, dt=dt,
         )  # fmt: skip
         every += extra
+        if limits:
+            every += limit_rows(limits, heading, speed_limit * _CAP_SLACK, dt)
         out = evade(capped, every, dt, speed_limit)
         return dataclasses.replace(out, active=out.velocity != nominal)
     out = project(capped, rows, dt) if rows else Filtered(capped, active=False)

@@ -14,6 +14,10 @@ from enum import StrEnum
 from typing import Any
 
 Vector = tuple[float, ...]
+# One side of a unicycle's limits as a polygon of its point's velocities in its body frame
+# (world/limits.py): (n_x, n_y, c, nearest), the polygon n·w ≤ c with n a unit vector; nearest,
+# m/s: how close the side's edge comes to standing still.
+LimitSide = tuple[float, float, float, float]
 
 
 class Safety(StrEnum):
@@ -154,6 +158,8 @@ class AgentConfig:
     formation_radius : max_j ‖δ_j‖, m: radius of the leader-centred circle enclosing the
         nominal formation (the paper's "diameter of the circle that encloses the formation" / 2).
     path : the leader's path; None for followers.
+    limits : a unicycle's speed, turn-rate and wheel limits as a polygon of its point's
+        velocities in its body frame (world/limits.py); empty for a single integrator.
     """
 
     agent_id: int
@@ -167,6 +173,7 @@ class AgentConfig:
     formation_radius: float
     path: PathSpec | None = None
     reshapes: tuple[Reshape, ...] = field(default_factory=tuple)
+    limits: tuple[LimitSide, ...] = ()
 
     @property
     def is_leader(self) -> bool:
@@ -197,6 +204,12 @@ def config_problem(c: AgentConfig) -> tuple[str, str] | None:
         return "path", f"every point and direction needs {c.dim} coordinates"
     if isinstance(path, Waypoints) and not 0 < path.reach < math.inf:
         return "path.reach", f"must be > 0 m and finite, got {path.reach}"
+    if c.limits and c.dim != 2:
+        return "limits", "a unicycle's limits are for the plane (dim 2)"
+    for k, (nx, ny, bound, nearest) in enumerate(c.limits):
+        unit = abs(math.hypot(nx, ny) - 1.0) < 1e-9
+        if not (unit and 0 < bound <= nearest * (1 + 1e-9) < math.inf):
+            return f"limits[{k}]", "needs a unit normal and 0 < c ≤ nearest, finite"
     p = c.params
     positive = ("alpha", "beta", "sensing_radius", "trigger_radius", "sigma_max", "speed_limit",
                 "separation")  # fmt: skip

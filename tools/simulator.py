@@ -84,7 +84,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
     bodies = scenario.lookaheads  # unicycles: l per agent (0: a single integrator)
     headings = scenario.initial_headings if bodies is not None else None
     for k in range(scenario.steps):
-        crowd, sensings = obstacles.sense(k, positions, crowd, d)
+        crowd, sensings = obstacles.sense(k, positions, crowd, d, headings)
         states: dict[int, AgentState] = {}
         for i, c in enumerate(controllers):
             memories[i], states[i + 1] = c.announce(memories[i], sensings[i])
@@ -95,7 +95,7 @@ def run(scenario: Scenario) -> Iterator[Tick]:
             memories[i], command = c.act(memories[i], sensings[i], heard)
             commanded.append(command.velocity)
             filtered.append(command.filtered)
-        velocities, _ = actuate(sensings, np.array(commanded), params, scenario.dt)
+        velocities, _ = actuate(sensings, np.array(commanded), params, scenario.dt, scenario.limits)
         moved, turned = move(positions, headings, velocities, bodies, scenario.dt)
         ordered = tuple(states[i + 1] for i in range(n))
         yield Tick(

@@ -435,11 +435,11 @@ def _safety(s: Scenario) -> None:
             f"{s.separation} m is less than 2·{what} = {2 * reach:.6g} m: the filter "
             "would let two agents' bodies touch",
         )
-    if s.unicycle is not None and s.speed_limit > s.unicycle.point_speed_cap(s.dt):
+    if s.unicycle is not None and s.speed_limit > s.unicycle.fastest_point(s.dt):
         raise ScenarioError(
             "control.speed_limit",
             f"{s.speed_limit} m/s is faster than the unicycle's point can move under its "
-            f"limits whatever its heading ({s.unicycle.point_speed_cap(s.dt):.6g} m/s: max_speed, "
+            f"limits in any direction ({s.unicycle.fastest_point(s.dt):.6g} m/s: max_speed, "
             "lookahead·max_turn_rate and the wheels', and no more than lookahead/dt)",
         )
     step = s.largest_step
@@ -512,10 +512,13 @@ def check_speed(s: Scenario) -> None:
             stacklevel=3,
         )
     need = cap_needed(s.path, s.control.beta)
-    if s.control.safety == "filter" and s.speed_limit < need:
-        cause = " (the unicycle's point cap)" if s.unicycle is not None else ""
+    cap, cause = s.speed_limit, ""
+    if s.unicycle is not None and s.unicycle.any_direction(s.dt) < cap:
+        cap = s.unicycle.any_direction(s.dt)
+        cause = " (the unicycle's point cap in every direction)"
+    if s.control.safety == "filter" and cap < need:
         warnings.warn(
-            f"{s.name}: the speed limit {s.speed_limit:.4g} m/s{cause} is below {need:.4g} m/s, "
+            f"{s.name}: the speed limit {cap:.4g} m/s{cause} is below {need:.4g} m/s, "
             "the least at which the capped law still closes every coordinate of a follower's "
             "error against the leader's velocity: Theorem 1 does not guarantee convergence "
             "(lower the leader's speed, or give the robots more speed)",

@@ -16,7 +16,7 @@ import numpy as np
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Mover, Sensing
 from shoal.bus.safety import safe_velocity
-from shoal.bus.types import ControlParams, Vector
+from shoal.bus.types import ControlParams, LimitSide, Vector
 from shoal.world.unicycle import step as unicycle_step
 
 
@@ -54,12 +54,15 @@ def sense_all(
     *,
     ids: Sequence[int] | None = None,
     movers: Sequence[Mover] = (),
+    headings: FloatArray | None = None,
 ) -> list[Sensing]:
     """The world's messages to every agent at the start of ``tick``, agent-id order.
 
     ``ids``: the obstacle id of each row of ``centres`` (default its row); ``movers``: every
-    moving obstacle at the start of the tick, each sensed like a standing one (centre within d).
+    moving obstacle at the start of the tick, each sensed like a standing one (centre within d);
+    ``headings``: the unicycles' (n,), rad (None: single integrators, 0).
     """
+    turned: list[float] = [0.0] * len(positions) if headings is None else headings.tolist()
     rows: list[Vector] = [tuple(row) for row in positions.tolist()]
     centre_rows: list[Vector] = [tuple(c) for c in centres.tolist()]
     radius_list: list[float] = radii.tolist()
@@ -81,6 +84,7 @@ def sense_all(
                 agent_ids=tuple([q + 1 for q in others]),
                 agent_positions=tuple([rows[q] for q in others]),
                 movers=tuple([m for m in movers if math.dist(row, m.centre) <= sensing_radius]),
+                heading=turned[i],
             )
         )
     return out
@@ -115,6 +119,7 @@ def estimated(sensings: Sequence[Sensing], biases: FloatArray) -> list[Sensing]:
                 agent_ids=s.agent_ids,
                 agent_positions=tuple([shift(p, rows[q - 1]) for q, p in pairs]),
                 movers=tuple(people),
+                heading=s.heading,
             )
         )
     return out
@@ -136,6 +141,7 @@ def actuate(
     velocities: FloatArray,
     params: ControlParams,
     dt: float,
+    limits: Sequence[tuple[LimitSide, ...]] = (),
 ) -> tuple[FloatArray, int]:
     """The velocities the world lets the agents hold this tick, and how many it corrected.
 
@@ -145,7 +151,8 @@ def actuate(
     already feasible, so it comes back unchanged, bit for bit (0 corrected); in realtime a
     command computed from an older position is projected again before it moves the agent.
     ``velocities`` (n, dim) m/s in agent-id order; a row of zeros (an agent held still) is
-    always feasible.
+    always feasible. ``limits``: each agent's unicycle limits (world/limits.py; empty: a
+    single integrator's none), met at the heading its sensing gives.
     """
     if not params.filtered:
         return velocities, 0
@@ -160,6 +167,8 @@ def actuate(
             margin=params.safety_margin,
             half_separation=params.separation / 2.0,
             speed_limit=params.speed_limit,
+            limits=limits[i] if limits else (),
+            heading=sensing.heading,
         )
         if result.active:
             out[i] = result.velocity

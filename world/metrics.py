@@ -216,11 +216,25 @@ def assumption2_violations(scenario: Scenario, omega: np.ndarray[Any, Any]) -> i
 
 
 def at_speed_limit(scenario: Scenario, traj: Trajectory) -> float:
-    """Fraction of agent-ticks whose velocity is at the speed limit (within 1e-9 of it)."""
+    """Fraction of agent-ticks whose velocity is at the speed limit (within 1e-9 of it), or,
+    for a unicycle, on its limits' polygon at its heading (world/limits.py): where the limits
+    cut the law."""
     if not traj.velocities.size:
         return 0.0
     speeds = np.linalg.norm(traj.velocities, axis=-1)
-    return float(np.mean(speeds >= scenario.speed_limit * (1.0 - 1e-9)))
+    at = speeds >= scenario.speed_limit * (1.0 - 1e-9)
+    if scenario.limits and traj.headings is not None:
+        turned = traj.headings[: len(traj.velocities)]
+        cos, sin = np.cos(turned), np.sin(turned)
+        u = traj.velocities
+        w = np.stack([cos * u[..., 0] + sin * u[..., 1], -sin * u[..., 0] + cos * u[..., 1]], -1)
+        for i, sides in enumerate(scenario.limits):
+            if sides:
+                n = np.asarray([side[:2] for side in sides])
+                c = np.asarray([side[2] for side in sides])
+                worst = (w[:, i] @ n.T - c * (1.0 - 1e-9)).max(axis=1)
+                at[:, i] |= worst >= 0.0
+    return float(np.mean(at))
 
 
 def summarize(

@@ -70,16 +70,21 @@ class Obstacles:
         )
 
     def sense(
-        self, tick: int, positions: FloatArray, state: MoverState, sensing_radius: float
+        self,
+        tick: int,
+        positions: FloatArray,
+        state: MoverState,
+        sensing_radius: float,
+        headings: FloatArray | None = None,
     ) -> tuple[MoverState, list[Sensing]]:
         """The start of a tick, for the world and the reference alike: the moving obstacles'
         velocities over it (:meth:`plan`), then every agent's sensing of the standing and the
         moving obstacles and the other agents — as the robot knows them, with ``biases``
-        (:func:`~shoal.world.kinematics.estimated`)."""
+        (:func:`~shoal.world.kinematics.estimated`); unicycles' ``headings`` (n,), rad."""
         state = self.plan(state, positions)
         sensings = sense_all(
             tick, positions, self.centres, self.radii, sensing_radius,
-            ids=self.ids, movers=self.sensed(state),
+            ids=self.ids, movers=self.sensed(state), headings=headings,
         )  # fmt: skip
         if self.biases is not None:
             sensings = estimated(sensings, self.biases)

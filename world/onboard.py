@@ -42,7 +42,7 @@ import numpy as np
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Sensing
 from shoal.bus.safety import Row, safe_velocity
-from shoal.bus.types import ControlParams, Vector
+from shoal.bus.types import ControlParams, LimitSide, Vector
 
 HEARD_WITHIN = 256  # ticks: an older last-heard position counts as never heard (near)
 _MASK = (1 << 64) - 1
@@ -225,10 +225,17 @@ class OnboardLayers:
                 out.append(plane_row(now, own, other, self.half, lower=i < q))
         return out, leeway
 
-    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> Held:
+    def act(
+        self,
+        k: int,
+        sensings: Sequence[Sensing],
+        commanded: FloatArray,
+        limits: Sequence[tuple[LimitSide, ...]] = (),
+    ) -> Held:
         """Every robot's velocity for tick k: its command (``commanded``, (n, dim) m/s) through
         its own layer, which knows where its robot is from its own sensing (an estimate, with a
-        scenario's position error: world.kinematics.estimated) and broadcasts that."""
+        scenario's position error: world.kinematics.estimated) and broadcasts that; a
+        unicycle's layer meets its ``limits`` too (world/limits.py, per robot; empty: none)."""
         rows = [s.position for s in sensings]
         self.history[k] = rows
         if k % self.epoch == 0 or not self.snapshot:
@@ -253,6 +260,8 @@ class OnboardLayers:
                 speed_limit=p.speed_limit,
                 extra=cell,
                 agents=False,
+                limits=limits[i] if limits else (),
+                heading=sensing.heading,
             )
             velocity = result.velocity
             if leeway < math.inf:

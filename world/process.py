@@ -216,7 +216,9 @@ class World(Declarations):
             if said is not None:
                 self._event(k, 3 if watch.trapped else 2, 1, said)
             clock.sent(k)
-            crowd, sensings = obstacles.sense(k, positions, crowd, s.control.sensing_radius)
+            crowd, sensings = obstacles.sense(
+                k, positions, crowd, s.control.sensing_radius, headings
+            )
             for i in sorted(self.alive):
                 self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
             self._collect(k, clock)
@@ -233,15 +235,15 @@ class World(Declarations):
             pose_holds += len(stale_robots)
             commanded = _commanded(reports, s.n, s.dim)
             if layer == SafetyLayer.REFEREE:
-                velocities, fixed = actuate(sensings, commanded, params, s.dt)
+                velocities, fixed = actuate(sensings, commanded, params, s.dt, s.limits)
                 corrected += fixed
             else:  # the robots move as their own layer (or nothing) lets them; a referee looks
                 velocities = commanded
                 if onboard is not None:
-                    held = onboard.act(k, sensings, commanded)
+                    held = onboard.act(k, sensings, commanded, s.limits)
                     velocities, standing = held.velocities, standing + held.standing
                     corrected += held.changed
-                fixed_velocities, fixed = actuate(sensings, velocities, params, s.dt)
+                fixed_velocities, fixed = actuate(sensings, velocities, params, s.dt, s.limits)
                 if fixed:
                     would += fixed
                     largest = max(largest, largest_change(fixed_velocities, velocities))

@@ -7,6 +7,7 @@ ids are 1..n; agent 1 is the leader and its offset is zero.
 
 from __future__ import annotations
 
+import functools
 import math
 import zlib
 from dataclasses import dataclass
@@ -20,12 +21,14 @@ from shoal.bus.types import (
     Clock,
     ControlParams,
     Gains,
+    LimitSide,
     PathSpec,
     Reshape,
     Vector,
     gains_of,
 )
 from shoal.world.graph import adjacency, communication_graph, diameter
+from shoal.world.limits import limit_sides, outer
 from shoal.world.movers import Motion
 from shoal.world.unicycle import arc_departure, speed_cap
 
@@ -106,6 +109,32 @@ class Unicycle:
         """m/s: the fastest the point may move in ticks of ``dt`` s so that every limit holds
         whatever the heading (world/unicycle.py, speed_cap)."""
         return speed_cap(self.limit(), self.lookahead, dt)
+
+    def sides(self, dt: float) -> tuple[LimitSide, ...]:
+        """Its limits as a polygon of the point's velocities in its body frame, for ticks of
+        ``dt`` s (world/limits.py): what the safety filter meets as rows at each heading."""
+        return _sides_of(self, dt)
+
+    def any_direction(self, dt: float) -> float:
+        """m/s: the fastest the point may move in every direction at once under its limits, in
+        ticks of ``dt`` s: the polygon's nearest side (a little under :meth:`point_speed_cap`,
+        the disc the exact limits hold, which the polygon does not quite reach)."""
+        return min(side[2] for side in self.sides(dt))
+
+    def fastest_point(self, dt: float) -> float:
+        """m/s: the fastest the point may move in some direction under its limits, in ticks of
+        ``dt`` s: the polygon's farthest vertex (straight ahead or back, for most robots)."""
+        return outer(self.sides(dt))
+
+
+@functools.lru_cache(maxsize=64)
+def _sides_of(u: Unicycle, dt: float) -> tuple[LimitSide, ...]:
+    wheels = u.wheel_radius is not None and u.axle is not None and u.max_wheel_speed
+    return limit_sides(
+        u.lookahead, u.max_speed, u.max_turn_rate, dt,
+        rim=u.wheel_radius * u.max_wheel_speed if wheels else None,  # type: ignore[operator]
+        half_axle=u.axle / 2.0 if wheels else None,  # type: ignore[operator]
+    )  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -303,7 +332,17 @@ class Scenario:
         largest = self.largest_step / self.dt
         if self.unicycle is None:
             return largest
-        return min(largest, self.unicycle.point_speed_cap(self.dt))
+        return min(largest, self.unicycle.fastest_point(self.dt))
+
+    @cached_property
+    def limits(self) -> tuple[tuple[LimitSide, ...], ...]:
+        """Each agent's unicycle limits as the safety filter meets them (world/limits.py):
+        empty for a single integrator; () when every agent is one."""
+        u = self.unicycle
+        if u is None:
+            return ()
+        sides = u.sides(self.dt)
+        return tuple(() if a.single else sides for a in self.agents)
 
     def epoch_ticks(self, clock: Clock = Clock.LOCKSTEP) -> int:
         """Ticks per epoch of Algorithm 1 under ``clock``: L_G in lockstep; in realtime
@@ -339,4 +378,5 @@ class Scenario:
             formation_radius=self.formation_radius,
             path=self.path if i == 0 else None,
             reshapes=self.reshapes,
+            limits=self.limits[i] if self.limits else (),
         )

@@ -279,9 +279,10 @@ def test_the_unicycle_speed_cap_warning_names_the_point_cap() -> None:
     data = edit("control.beta", 0.3, data)
     data = edit("leader.speed", 0.2, data)  # needs √(0.5² + 0.3²)·0.2/0.5 = 0.233 m/s
     data = edit("agent_radius", 0.05, data)
-    with pytest.warns(SpeedCapWarning, match=r"\(the unicycle's point cap\) is below 0\.2332"):
+    with pytest.warns(SpeedCapWarning, match=r"cap in every direction\) is below 0\.2332"):
         s = scenario_from_dict(data)
-    assert s.speed_limit < cap_needed(s.path, s.control.beta)
+    assert s.unicycle is not None
+    assert s.unicycle.any_direction(s.dt) < cap_needed(s.path, s.control.beta) < s.speed_limit
 
 
 # -- field errors -------------------------------------------------------------------------------

@@ -379,8 +379,8 @@ def _robotarium(**changes: object) -> str:
          "control.safety_margin", "a unicycle's reach"),
         ({"control": {"safety_margin": 0.15, "separation": 0.25, "sensing_radius": 0.8,
                       "trigger_radius": 0.6}}, "control.separation", "a unicycle's reach"),
-        ({"control": {"safety_margin": 0.15, "speed_limit": 0.15, "sensing_radius": 0.8,
-                      "trigger_radius": 0.6}}, "control.speed_limit", "whatever its heading"),
+        ({"control": {"safety_margin": 0.15, "speed_limit": 0.21, "sensing_radius": 0.8,
+                      "trigger_radius": 0.6}}, "control.speed_limit", "in any direction"),
         ({"agents": [{"offset": [0, 0], "heading": 7.0}, {"offset": [-0.4, 0.4]}]},
          "agents[0].heading", "outside"),
     ],
@@ -397,7 +397,8 @@ def test_single_integrators_are_the_default_and_a_unicycle_has_its_reach() -> No
     s = load_scenario("robotarium")
     assert load_scenario("default").unicycle is None and load_scenario("default").lookahead is None
     assert s.unicycle is not None
-    assert s.speed_limit == pytest.approx(s.unicycle.point_speed_cap(s.dt))
+    assert s.speed_limit == s.unicycle.fastest_point(s.dt)  # straight ahead, 0.2 m/s less 0.06 %
+    assert s.speed_limit == pytest.approx(0.2, rel=1e-3)
     assert s.body_reach == pytest.approx(0.0925 + 0.05 + arc_departure(s.speed_limit, 0.05, 0.033))
     assert s.control.safety_margin >= s.body_reach
 
@@ -472,9 +473,18 @@ def test_the_summary_says_how_often_the_point_is_held_to_its_cap() -> None:
     s = load_scenario("robotarium")
     traj = simulate(s)
     summary = summarize(s, traj)
-    speeds = np.linalg.norm(traj.velocities, axis=-1)
-    expected = float(np.mean(speeds >= s.speed_limit * (1 - 1e-9)))
-    assert summary.at_speed_limit == expected and 0.0 < expected < 0.5
+    assert traj.headings is not None
+    sides = s.unicycle.sides(s.dt) if s.unicycle is not None else ()
+    normals = np.asarray([side[:2] for side in sides])
+    bounds = np.asarray([side[2] for side in sides])
+    at = 0
+    for k in range(len(traj.velocities)):  # each agent-tick on its polygon, one by one
+        for i in range(s.n):
+            theta = traj.headings[k, i]
+            w = np.array([[np.cos(theta), np.sin(theta)], [-np.sin(theta), np.cos(theta)]])
+            at += bool(np.any(normals @ (w @ traj.velocities[k, i]) >= bounds * (1 - 1e-9)))
+    expected = at / traj.velocities.shape[0] / s.n
+    assert summary.at_speed_limit == pytest.approx(expected, abs=1e-12) and 0.0 < expected < 0.5
     assert "speed limit" in render_summary(summary.as_dict())
     plain = load_scenario("default")
     assert summarize(plain, simulate(plain)).at_speed_limit == 0.0
