@@ -232,7 +232,8 @@ def project(
 
     A feasible nominal comes back unchanged (the same tuple). Rows that the ball of radius
     ‖v̂‖ lies inside are dropped first: the projection onto a convex set that holds 0 is never
-    longer than v̂, so they cannot be active. Then every set of at most ``dim`` remaining rows is
+    longer than v̂, so they cannot be active; and of the rest only those whose plane comes near
+    enough to v̂ to be active (:func:`_within_reach`). Then every set of at most ``dim`` rows is
     tried as the active set (KKT: the equality-constrained minimiser, multipliers ≥ 0, every row
     met); the nearest accepted candidate wins, ties to the first in enumeration order. Where
     some bound is > 0 (0 is not feasible) the caller gives the ``radius`` (m/s) no answer may

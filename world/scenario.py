@@ -123,8 +123,9 @@ class Unicycle:
 
     def fastest_point(self, dt: float) -> float:
         """m/s: the fastest the point may move in some direction under its limits, in ticks of
-        ``dt`` s: the polygon's farthest vertex (straight ahead or back, for most robots)."""
-        return outer(self.sides(dt))
+        ``dt`` s: the polygon's farthest vertex (straight ahead or back, for most robots), and
+        never above l/dt (the exact arc map's range, docs/safety.md)."""
+        return min(outer(self.sides(dt)), self.lookahead / dt)
 
 
 @functools.lru_cache(maxsize=64)

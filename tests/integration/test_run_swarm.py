@@ -236,7 +236,9 @@ def test_garbage_on_the_runs_keys_crashes_nothing(router: str, tmp_path: Path) -
     assert json_of(subprocess.CompletedProcess([], 0, stdout, stderr))["collisions"] == 0
 
 
-@pytest.mark.parametrize("name", ["sinusoid", "obstacles"])
+# sinusoid only: realtime swarms among obstacles keep their guards exactly in
+# tests/integration/test_safety_swarm.py (and the 65-s obstacles run here cost CI a minute).
+@pytest.mark.parametrize("name", ["sinusoid"])
 def test_realtime_run_converges_without_collisions_and_reports_latency(
     name: str, tmp_path: Path
 ) -> None:
