@@ -105,8 +105,8 @@ def extensions() -> list[Extension]:
     try:
         built = mypycify(
             ["--config-file=", "--ignore-missing-imports", *COMPILED],
-            # SHOAL_MYPYC_OPT: the C compiler's optimisation, 0-3 (tests build at 0, in a third of
-            # the time: the bits are the same at every level, -ffp-contract=off below).
+            # SHOAL_MYPYC_OPT: the C compiler's optimisation, 0-3 (tests build at 0, quicker: the
+            # bits are the same at every level, -ffp-contract=off below; test_compiled.py checks).
             opt_level=os.environ.get("SHOAL_MYPYC_OPT", "3"),
             group_name=GROUP,
             target_dir=str(stage / "build"),
