@@ -16,17 +16,22 @@ The polygon built here lies inside them (docs/safety.md, Unicycles):
 
 - **The turn rate**: two rays from O at angles ±X; they are exact.
 - **The speed and the wheels**: each curve is cut where V bends into pieces, each piece into
-  chords, and each chord's line is moved towards the origin by δ = M·Δx²/8, Δx the chord's span
-  in x and M a bound on |C''| over it. Writing C(x) = −s/2 + (s/2)·e^{2ix} + V(x)·h(x) with
+  spans, and each span gets a line n·w = c with n pointing away from the origin (the chord's
+  normal, or the radius's to the span's middle) and c = min(n·C(x_a), n·C(x_b)) − max(0, K)·Δx²/8,
+  K ≥ n·C'' over the span. Writing C(x) = −s/2 + (s/2)·e^{2ix} + V(x)·h(x) with
   h(x) = sinc x·e^{ix} = ∫₀¹ e^{2ixt} dt, so |h'| ≤ 1 and |h''| ≤ 4/3, and V linear on the piece:
-  M = 2s + 2|V'| + (4/3)·max|V|. The component of C along the chord's normal n is then within δ
-  of the chord (the error of linear interpolation), so every point of the curve over the chord's
-  span is on or beyond the moved line; and every velocity that breaks the limit at such an angle
-  lies farther along the same ray from O (the rays cross the chord outwards: checked here), so
-  the moved line keeps it out.
+  K = max over the span of −2s·n·e^{2ix} (a cosine, exact) + 2|V'| + (4/3)·max V. Then n·C
+  less its linear interpolant is ≥ −max(0, K)·Δx²/8, so the whole curve over the span is on or
+  beyond the line; and every velocity that breaks the limit at such an angle lies farther along
+  the same ray from O (the rays cross the line outwards: checked here), so the line keeps it
+  out. At the front the curve bends away from the origin (K < 0, no shift).
 
-The chords are a resolution, not a margin: the argument holds for any number of them. Each
-piece gets enough that δ ≤ :data:`RESOLUTION` of the speed straight ahead.
+The spans are a resolution, not a margin: the argument holds for any number of them. The front
+gets enough chords per piece that even the unsigned bound's shift stays under
+:data:`RESOLUTION` of the speed straight ahead; the back, where the set is not convex, is tried
+with chords and radial normals, 1–16 per piece (:data:`BACK_CHORDS`), and the polygon whose
+nearest side is farthest from 0 is kept. Where no line keeps 0 strictly inside (a slow robot
+that turns fast), the turn rate is halved until one does: a stricter limit.
 """
 
 from __future__ import annotations
@@ -37,7 +42,8 @@ from collections.abc import Callable
 
 from shoal.bus.types import LimitSide
 
-# Each chord gives up at most this fraction of the speed straight ahead (v_max, or the wheels').
+# The front's chords per piece: enough that even |C''|'s unsigned bound would shift each by at
+# most this fraction of the speed straight ahead (v_max, or the wheels').
 RESOLUTION = 0.002
 MAX_CHORDS = 16  # per piece of the speed's envelope: bounds the rows the filter may meet
 NARROWER = 12  # halvings of the turn rate tried where the band is too thin for its bend
