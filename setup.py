@@ -50,6 +50,7 @@ COMPILED = [
     "shoal/agent/controller.py",
     "shoal/agent/leader.py",
     "shoal/world/kinematics.py",
+    "shoal/world/unicycle.py",
     "shoal/tools/simulator.py",
 ]
 # The mypyc runtime shared by the compiled modules: an extension inside shoal, never top level.

@@ -42,9 +42,34 @@ Lookahead = float | FloatArray  # l for every agent, or (n,) per agent: 0 for a 
 
 
 def _each(lookahead: Lookahead, n: int) -> list[float]:
-    if isinstance(lookahead, float | int):
+    if isinstance(lookahead, (float, int)):
         return [float(lookahead)] * n
-    return [float(x) for x in lookahead]
+    out: list[float] = np.asarray(lookahead, dtype=np.float64).tolist()
+    return out
+
+
+def _command(theta: float, ux: float, uy: float, ell: float, dt: float) -> tuple[float, float]:
+    """(v, ω) of one unicycle at heading ``theta`` whose point moves by (ux, uy)·dt exactly."""
+    cos, sin = math.cos(theta), math.sin(theta)
+    wx, wy = cos * ux + sin * uy, -sin * ux + cos * uy
+    x = math.atan2(wy, 2.0 * ell / dt + wx)
+    return (math.cos(x) * wx + math.sin(x) * wy) / _sinc(x), 2.0 * x / dt
+
+
+def _drive(
+    px: float, py: float, theta: float, speed: float, w: float, ell: float, elapsed: float
+) -> tuple[float, float, float]:
+    """One unicycle's point and heading after ``elapsed`` s of (``speed``, ``w``) held."""
+    cx = px - ell * math.cos(theta)
+    cy = py - ell * math.sin(theta)
+    # The chord of the body's arc: v·t·sin(x)/x along θ + x, x = ω·t/2 (the same as
+    # (v/ω)(sin θ' − sin θ, cos θ − cos θ'), without its cancellation when ω is tiny).
+    half = 0.5 * w * elapsed
+    chord = speed * elapsed * _sinc(half)
+    cx += chord * math.cos(theta + half)
+    cy += chord * math.sin(theta + half)
+    turned = theta + w * elapsed
+    return cx + ell * math.cos(turned), cy + ell * math.sin(turned), turned
 
 
 def wheel_command(
@@ -53,20 +78,13 @@ def wheel_command(
     """(v, ω) per agent, m/s and rad/s, which held for ``dt`` s move each point by ``u``·dt
     exactly ((n, 2) point velocities, (n,) headings); a single integrator's (l = 0) is NaN."""
     n = len(headings)
-    v = np.empty(n)
-    omega = np.empty(n)
-    for i, ell in enumerate(_each(lookahead, n)):
-        if ell == 0.0:
-            v[i] = omega[i] = math.nan
-            continue
-        theta = float(headings[i])
-        cos, sin = math.cos(theta), math.sin(theta)
-        ux, uy = float(u[i, 0]), float(u[i, 1])
-        wx, wy = cos * ux + sin * uy, -sin * ux + cos * uy
-        x = math.atan2(wy, 2.0 * ell / dt + wx)
-        omega[i] = 2.0 * x / dt
-        v[i] = (math.cos(x) * wx + math.sin(x) * wy) / _sinc(x)
-    return v, omega
+    pairs = [
+        (math.nan, math.nan) if ell == 0.0 else _command(theta, ux, uy, ell, dt)
+        for theta, (ux, uy), ell in zip(
+            headings.tolist(), u.tolist(), _each(lookahead, n), strict=True
+        )
+    ]
+    return np.array([v for v, _ in pairs]), np.array([w for _, w in pairs])
 
 
 def drive(
@@ -79,23 +97,14 @@ def drive(
 ) -> tuple[FloatArray, FloatArray]:
     """The points (n, 2) and headings (n,) after ``elapsed`` s with (v, ω) held: the body's exact
     arc (a straight line where ω = 0), the point l ahead of it. Only for unicycles (l > 0)."""
-    out = np.empty_like(points)
-    after = np.empty_like(headings)
-    for i, ell in enumerate(_each(lookahead, len(points))):
-        theta, w, speed = float(headings[i]), float(omega[i]), float(v[i])
-        cx = float(points[i, 0]) - ell * math.cos(theta)
-        cy = float(points[i, 1]) - ell * math.sin(theta)
-        # The chord of the body's arc: v·t·sin(x)/x along θ + x, x = ω·t/2 (the same as
-        # (v/ω)(sin θ' − sin θ, cos θ − cos θ'), without its cancellation when ω is tiny).
-        half = 0.5 * w * elapsed
-        chord = speed * elapsed * _sinc(half)
-        cx += chord * math.cos(theta + half)
-        cy += chord * math.sin(theta + half)
-        turned = theta + w * elapsed
-        out[i, 0] = cx + ell * math.cos(turned)
-        out[i, 1] = cy + ell * math.sin(turned)
-        after[i] = turned
-    return out, after
+    moved = [
+        _drive(px, py, theta, speed, w, ell, elapsed)
+        for (px, py), theta, speed, w, ell in zip(
+            points.tolist(), headings.tolist(), v.tolist(), omega.tolist(),
+            _each(lookahead, len(points)), strict=True,
+        )
+    ]  # fmt: skip
+    return np.array([(x, y) for x, y, _ in moved]), np.array([t for _, _, t in moved])
 
 
 def step(
@@ -105,18 +114,20 @@ def step(
     each point by ``u``·dt; the points land there up to rounding. A single integrator of a
     mixed formation (l = 0) moves by exactly ``u``·dt (the same bits as
     world/kinematics.py's ``integrate``) and keeps its heading."""
-    if isinstance(lookahead, float | int) or bool(np.all(np.asarray(lookahead) > 0.0)):
-        v, omega = wheel_command(u, headings, lookahead, dt)
-        return drive(points, headings, v, omega, lookahead, dt)
-    single = np.asarray(lookahead) == 0.0
-    wheeled = ~single
-    out = points + dt * u  # elementwise: the single integrators' rows are integrate()'s bits
-    after = np.array(headings, dtype=np.float64)
-    if wheeled.any():
-        lw = np.asarray(lookahead)[wheeled]
-        v, omega = wheel_command(u[wheeled], headings[wheeled], lw, dt)
-        out[wheeled], after[wheeled] = drive(points[wheeled], headings[wheeled], v, omega, lw, dt)
-    return out, after
+    out: list[tuple[float, float]] = []
+    after: list[float] = []
+    for (px, py), theta, (ux, uy), ell in zip(
+        points.tolist(), headings.tolist(), u.tolist(), _each(lookahead, len(points)), strict=True
+    ):
+        if ell == 0.0:  # integrate()'s p + dt·u, elementwise: the same bits
+            out.append((px + dt * ux, py + dt * uy))
+            after.append(theta)
+            continue
+        v, w = _command(theta, ux, uy, ell, dt)
+        x, y, turned = _drive(px, py, theta, v, w, ell, dt)
+        out.append((x, y))
+        after.append(turned)
+    return np.array(out, dtype=np.float64).reshape(points.shape), np.array(after, dtype=np.float64)
 
 
 def body_centres(points: FloatArray, headings: FloatArray, lookahead: Lookahead) -> FloatArray:
