@@ -2,8 +2,8 @@
 (docs/performance.md, "Compiled").
 
 Everything else about the package is in pyproject.toml. The modules in ``COMPILED`` run for every
-agent every tick: the controller, the safety filter, the small-vector arithmetic, and the
-reference simulator's tick loop that calls them in a campaign. mypyc
+agent every tick: the controller, the safety filter, the small-vector arithmetic, a unicycle's
+step over its arc, and the reference simulator's tick loop that calls them in a campaign. mypyc
 compiles them, and the messages they pass each other (bus/messages.py), from the same
 type-annotated Python into C extensions; the Python stays beside them in the package and is
 what runs wherever they are missing. Either gives the same bits:

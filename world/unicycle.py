@@ -80,9 +80,7 @@ def wheel_command(
     n = len(headings)
     pairs = [
         (math.nan, math.nan) if ell == 0.0 else _command(theta, ux, uy, ell, dt)
-        for theta, (ux, uy), ell in zip(
-            headings.tolist(), u.tolist(), _each(lookahead, n), strict=True
-        )
+        for theta, (ux, uy), ell in zip(headings.tolist(), u.tolist(), _each(lookahead, n))
     ]
     return np.array([v for v, _ in pairs]), np.array([w for _, w in pairs])
 
@@ -101,7 +99,7 @@ def drive(
         _drive(px, py, theta, speed, w, ell, elapsed)
         for (px, py), theta, speed, w, ell in zip(
             points.tolist(), headings.tolist(), v.tolist(), omega.tolist(),
-            _each(lookahead, len(points)), strict=True,
+            _each(lookahead, len(points)),
         )
     ]  # fmt: skip
     return np.array([(x, y) for x, y, _ in moved]), np.array([t for _, _, t in moved])
@@ -117,7 +115,7 @@ def step(
     out: list[tuple[float, float]] = []
     after: list[float] = []
     for (px, py), theta, (ux, uy), ell in zip(
-        points.tolist(), headings.tolist(), u.tolist(), _each(lookahead, len(points)), strict=True
+        points.tolist(), headings.tolist(), u.tolist(), _each(lookahead, len(points))
     ):
         if ell == 0.0:  # integrate()'s p + dt·u, elementwise: the same bits
             out.append((px + dt * ux, py + dt * uy))

@@ -3,7 +3,11 @@ prints no Python traceback. Each command must appear in the README word for word
 edit that drops or changes one fails here until this list follows it.
 
 Left out: the long ones (`shoal campaign`, `shoal bench`, each minutes) and the processes that
-serve until stopped (`shoal router`, `shoal world`); their own tests cover them."""
+serve until stopped (`shoal router`, `shoal world`); their own tests cover them.
+
+The two swarms it runs (`default`, `obstacles`) are checked here against the reference simulator
+bit for bit, as tests/integration/test_run_swarm.py checks every other built-in: one distributed
+run of each in CI, not two."""
 
 from __future__ import annotations
 
@@ -13,6 +17,10 @@ from pathlib import Path
 
 import pytest
 from conftest import PYTHON, ROOT
+
+from shoal.tools.log.reader import read_trajectory
+from shoal.tools.simulator import simulate
+from shoal.world.loader import load_scenario
 
 pytestmark = pytest.mark.integration
 
@@ -27,6 +35,7 @@ COMMANDS = (
     "shoal scenarios new -n 20 --shape grid --obstacles 5 -o grid20.yaml",
     "shoal run obstacles --out runs/obstacles.mcap && shoal plot runs/obstacles.mcap",
 )
+RUN_HERE = ("default", "obstacles")  # the built-ins these commands run as swarms
 
 
 def test_every_command_is_the_readmes_own() -> None:
@@ -55,3 +64,8 @@ def test_the_readmes_commands_run_in_order_in_a_fresh_folder(tmp_path: Path) -> 
     for command in COMMANDS:
         _run(command, tmp_path)
     assert sorted(p.name for p in (tmp_path / "plots").glob("obstacles-*.png"))  # the last plot
+    runs = tmp_path / "runs"
+    (default,) = (p for p in runs.glob("default-*.mcap") if not p.name.endswith(".foxglove.mcap"))
+    for log, name in ((default, "default"), (runs / "obstacles.mcap", "obstacles")):
+        scn = load_scenario(name)
+        assert read_trajectory(log, dt=scn.dt).equals(simulate(scn)), name
