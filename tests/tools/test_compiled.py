@@ -27,22 +27,27 @@ COMPILED = [
     "shoal.agent.controller",
     "shoal.agent.leader",
     "shoal.world.kinematics",
+    "shoal.world.unicycle",
     "shoal.tools.simulator",
 ]
 
-# Digests of built-ins (standing obstacles, contraction, people) and of campaign fields (inside,
-# filter on; around obstacles and crossing) by whichever shoal is imported; JSON on stdout.
+# Digests of built-ins (standing obstacles, contraction, people, unicycles) and of campaign fields
+# (inside, filter on; around obstacles and crossing, and as unicycles) by whichever shoal is
+# imported; JSON on stdout.
 DIGESTS = """
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
-out = {name: simulate(load_scenario(name)).digest() for name in ("obstacles", "passage", "crossing")}
+names = ("obstacles", "passage", "crossing", "robotarium")
+out = {name: simulate(load_scenario(name)).digest() for name in names}
 for base in ("obstacles", "crossing"):
     for seed in (0, 1):
         field = make_field(load_scenario(base), seed, "inside", FieldOptions())
         out[f"{base}/{seed}"] = simulate(field).digest()
 # A gap field: drawing it asks passage_bid about numpy arrays (a TypeError once, compiled).
 out["obstacles/gap/0"] = simulate(make_field(load_scenario("obstacles"), 0, "gap", FieldOptions())).digest()
+wheels = FieldOptions(kinematics="unicycle")  # headings drawn per field: most turn or reverse
+out["obstacles/unicycle/0"] = simulate(make_field(load_scenario("obstacles"), 0, "inside", wheels)).digest()
 """  # noqa: E501
 
 
@@ -85,8 +90,9 @@ def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
     here: dict[str, Any] = {}
     exec(DIGESTS, here)  # the same code, in this process
     pure = here["out"]
-    assert set(compiled) == {"obstacles", "passage", "crossing", "obstacles/0", "obstacles/1",
-                             "crossing/0", "crossing/1", "obstacles/gap/0"}  # fmt: skip
+    assert set(compiled) == {"obstacles", "passage", "crossing", "robotarium", "obstacles/0",
+                             "obstacles/1", "crossing/0", "crossing/1", "obstacles/gap/0",
+                             "obstacles/unicycle/0"}  # fmt: skip
     assert compiled == pure
     assert pure["obstacles"] == simulate(load_scenario("obstacles")).digest()
 
