@@ -420,6 +420,14 @@ def _safety(s: Scenario) -> None:
     c = s.control
     if c.safety != "filter":
         return
+    # The speed limit first: the unicycle's reach below is reckoned at it (the arc's departure)
+    if s.unicycle is not None and s.speed_limit > s.unicycle.fastest_point(s.dt):
+        raise ScenarioError(
+            "control.speed_limit",
+            f"{s.speed_limit} m/s is faster than the unicycle's point can move under its "
+            f"limits in any direction ({s.unicycle.fastest_point(s.dt):.6g} m/s: max_speed, "
+            "lookahead·max_turn_rate and the wheels', and no more than lookahead/dt)",
+        )
     reach, what = s.agent_radius, "agent_radius"
     if s.unicycle is not None:  # the body is l behind the point, and the point leaves its chord
         reach, what = s.body_reach, "agent_radius + l + l·x²/2 (a unicycle's reach)"
@@ -434,13 +442,6 @@ def _safety(s: Scenario) -> None:
             "control.separation",
             f"{s.separation} m is less than 2·{what} = {2 * reach:.6g} m: the filter "
             "would let two agents' bodies touch",
-        )
-    if s.unicycle is not None and s.speed_limit > s.unicycle.fastest_point(s.dt):
-        raise ScenarioError(
-            "control.speed_limit",
-            f"{s.speed_limit} m/s is faster than the unicycle's point can move under its "
-            f"limits in any direction ({s.unicycle.fastest_point(s.dt):.6g} m/s: max_speed, "
-            "lookahead·max_turn_rate and the wheels', and no more than lookahead/dt)",
         )
     step = s.largest_step
     if step <= 0:

@@ -63,7 +63,8 @@ def least_gaps(s: Scenario, traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
         when = np.where(a > 0.0, np.clip(-b / a, 0.0, traj.dt), 0.0)
     nearest = rel + when[..., None] * closing
     radii = np.asarray([s.obstacles[k].radius for k in s.mover_ids])
-    gaps = np.sqrt((nearest * nearest).sum(axis=-1)) - radii - s.agent_radius
+    # body_reach: a unicycle's body lies within it of its point's chord (world/unicycle.py)
+    gaps = np.sqrt((nearest * nearest).sum(axis=-1)) - radii - s.body_reach
     dist = np.sqrt((rel * rel).sum(axis=-1))
     with np.errstate(divide="ignore", invalid="ignore"):
         towards = np.where(

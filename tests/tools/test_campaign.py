@@ -28,6 +28,7 @@ from shoal.tools.campaign.fields import (
     make_field,
     needed_contraction,
     unicycle_for,
+    unicycle_ticks,
 )
 from shoal.tools.campaign.hard import hard_field
 from shoal.tools.campaign.report import render, report
@@ -361,6 +362,27 @@ def test_kinematics_unicycle_turns_the_fields_into_unicycles_facing_anywhere() -
     assert all(f.control.safety_margin >= f.body_reach for f in fields)
     code, rep = _campaign("--fields", "4", "--kinematics", "unicycle", "--jobs", "1")
     assert code == 0 and rep["kinematics"] == "unicycle" and rep["sets"]["inside"]["collided"] == 0
+
+
+def test_unicycles_run_a_finer_tick_where_the_fields_speed_limit_asks_more_than_l_over_dt() -> None:
+    """crossing sets 2 m/s; its unicycles (l = 0.05 m) reach at most l/dt = 1 m/s at its 20 Hz,
+    so its fields run 3 ticks for each of crossing's (3 m/s > 2), the tolerance kept in metres;
+    obstacles sets none, and its unicycle fields keep its tick (and their bits)."""
+    crossing, obstacles = load_scenario("crossing"), load_scenario("obstacles")
+    robot = unicycle_for(crossing, 2.0)
+    assert unicycle_ticks(crossing.dt, robot, 2.0) == 3 and unicycle_ticks(0.05, robot, 0.99) == 1
+    assert unicycle_ticks(0.05, robot, 1.0) == 2  # l/dt itself is the map's edge: not within
+    assert unicycle_ticks(0.05, robot, None) == 1
+    field = make_field(crossing, 1, "inside", FieldOptions(kinematics="unicycle"))
+    assert field.dt == crossing.dt / 3 and field.unicycle == robot
+    assert field.tolerance == pytest.approx(crossing.tolerance)
+    assert field.speed_limit == 2.0 <= robot.fastest_point(field.dt)
+    same = make_field(obstacles, 1, "inside", FieldOptions(kinematics="unicycle"))
+    assert same.dt == obstacles.dt
+    code, rep = _campaign("--base", "crossing", "--fields", "2", "--kinematics", "unicycle",
+                          "--jobs", "1")  # fmt: skip
+    assert code == 0 and rep["sets"]["inside"]["fields"] == 2
+    assert rep["sets"]["inside"]["collided"] == 0
 
 
 def test_hard_fields_as_unicycles_are_all_in_the_plane_and_none_collides() -> None:

@@ -22,7 +22,9 @@ from shoal.tools.campaign.people import (
 )
 from shoal.tools.cli import main
 from shoal.tools.simulator import simulate
+from shoal.world.contacts import least_gaps
 from shoal.world.loader import load_scenario, parse_scenario
+from shoal.world.unicycle import body_centres
 
 BASE = load_scenario("obstacles")
 
@@ -93,3 +95,54 @@ def test_people_options_are_checked() -> None:
     assert out.exit_code == 2 and "--people-model" in out.output
     out = CliRunner().invoke(main, ["campaign", "--people", "2", "--safety", "paper"])
     assert out.exit_code == 2 and "needs the safety filter" in out.output
+
+
+UNICYCLES = FieldOptions(kinematics="unicycle")
+
+
+def test_unicycles_among_people_tick_fast_enough_for_the_robots_speed() -> None:
+    """crossing's robots made unicycles: l = (ρ − r)/2 = 0.05 m, so at crossing's 20 Hz a point
+    moves at most l/dt = 1 m/s, and every field was refused (the reach reckoned at 3 m/s). Made
+    for the people campaign's 3 m/s they run 4 ticks for each of crossing's (80 Hz: 4 m/s), the
+    convergence tolerance kept in metres; no contact is the robots' fault."""
+    crossing = load_scenario("crossing")
+    opts = PeopleOptions(count=5)
+    field = add_people(crossing, 2, UNICYCLES, opts)
+    assert field.unicycle is not None and field.dt == crossing.dt / 4
+    assert field.unicycle.lookahead / field.dt > opts.agent_speed
+    assert field.control.speed_limit == opts.agent_speed <= field.unicycle.fastest_point(field.dt)
+    assert field.tolerance == pytest.approx(crossing.tolerance)
+    assert add_people(crossing, 2, FieldOptions(), opts).dt == crossing.dt  # points as they were
+    out = run_people_task(PeopleTask(crossing.source, crossing.name, 2, UNICYCLES, opts))
+    assert out.error is None and out.dt == field.dt
+    assert out.agent_at_fault == 0 and out.other_collisions == 0 and out.success
+
+
+def test_a_unicycles_contact_with_a_person_is_judged_by_its_bodys_reach() -> None:
+    """A unicycle's body lies up to l behind its point: a contact is judged by the body's reach
+    about the point's chord (world/contacts.py), which the true body never comes inside; the
+    agent's radius alone (a point robot's) lets the body come closer than the judged gap."""
+    field = add_people(load_scenario("crossing"), 4, UNICYCLES, PeopleOptions(count=5))
+    traj = simulate(field)
+    gaps, _ = least_gaps(field, traj)
+    assert field.unicycle is not None and traj.headings is not None and traj.movers is not None
+    ticks = traj.ticks
+    bodies = body_centres(traj.positions[:ticks], traj.headings[:ticks], field.unicycle.lookahead)
+    radii = np.asarray([field.obstacles[k].radius for k in field.mover_ids])
+    apart = np.linalg.norm(bodies[:, :, None, :] - traj.movers[:ticks, None, :, :], axis=-1)
+    body_gaps = apart - radii - field.agent_radius  # the true body's, at the tick's start
+    assert (body_gaps >= gaps - 1e-12).all()
+    as_points = gaps + field.body_reach - field.agent_radius  # judged with the radius alone
+    assert (body_gaps < as_points - 0.01).any()  # the body comes > 1 cm closer than that says
+
+
+def test_the_cli_runs_unicycles_among_people_and_says_so() -> None:
+    args = ["campaign", "--people", "5", "--kinematics", "unicycle", "--fields", "2",
+            "--jobs", "1"]  # fmt: skip
+    out = CliRunner().invoke(main, [*args, "--json"])
+    assert out.exit_code == 0, out.output
+    rep = json.loads(out.output.strip().splitlines()[-1])
+    assert rep["kinematics"] == "unicycle" and rep["fields"] == 2 and rep["not_drawn"] == 0
+    assert rep["agent_at_fault"] == 0 and rep["dt"] == [0.0125]
+    text = CliRunner().invoke(main, args).output
+    assert "robots                 unicycles, dt 0.0125 s" in text

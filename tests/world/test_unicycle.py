@@ -381,6 +381,8 @@ def _robotarium(**changes: object) -> str:
                       "trigger_radius": 0.6}}, "control.separation", "a unicycle's reach"),
         ({"control": {"safety_margin": 0.15, "speed_limit": 0.21, "sensing_radius": 0.8,
                       "trigger_radius": 0.6}}, "control.speed_limit", "in any direction"),
+        # faster than l/dt: named as the speed limit, not as the reach reckoned at it
+        ({"control__speed_limit": 3.0}, "control.speed_limit", "no more than lookahead/dt"),
         ({"agents": [{"offset": [0, 0], "heading": 7.0}, {"offset": [-0.4, 0.4]}]},
          "agents[0].heading", "outside"),
     ],

@@ -119,7 +119,8 @@ class FieldOptions:
         sat(e/φ) in place of the paper's sign(e) (docs/campaign.md, Arrival); 0 keeps the base's.
     kinematics : None keeps the base's; "unicycle" makes every agent a unicycle (the base's own
         figures, or :func:`unicycle_for` a base of single integrators), each starting at a
-        heading drawn from the field's seed; "single" makes them single integrators.
+        heading drawn from the field's seed, on a finer tick where the field's speed limit
+        asks more than l/dt (:func:`unicycle_ticks`); "single" makes them single integrators.
     position_error : m; every field's ``position_error`` (each robot's estimate off by up to
         it, docs/safety.md, Position error); None keeps the base's.
     speed_limit : m/s; replaces the base's ``control.speed_limit`` (a robot's own cap; the far
@@ -295,25 +296,41 @@ def _faster(
     return dataclasses.replace(path, speed=path.speed * k), moving / k
 
 
-def unicycle_for(base: Scenario) -> Unicycle:
+def unicycle_for(base: Scenario, speed: float | None = None) -> Unicycle:
     """Unicycles for a base of single integrators: l = (ρ − agent_radius)/2, leaving the other
-    half of the margin to the arc's sagitta (far more than it needs); |v| ≤ 1.5·β·√dim, so that
-    the sign term's chatter, |(β, …, β)|, never meets the cap; ω ≤ that over l (the point's
-    cap is then |v|'s, a little less for the arc)."""
+    half of the margin to the arc's sagitta (far more than it needs); |v| ≤ 1.5·max(β·√dim,
+    ``speed``), so that neither the sign term's chatter, |(β, …, β)|, nor the field's speed limit
+    ``speed`` (m/s, if it sets one) meets the robot's own cap; ω ≤ that over l (the point's cap
+    is then |v|'s, a little less for the arc)."""
     c = base.control
     lookahead = (c.safety_margin - base.agent_radius) / 2
-    speed = 1.5 * c.beta * math.sqrt(base.dim)
-    return Unicycle(lookahead=lookahead, max_speed=speed, max_turn_rate=speed / lookahead)
+    top = 1.5 * max(c.beta * math.sqrt(base.dim), 0.0 if speed is None else speed)
+    return Unicycle(lookahead=lookahead, max_speed=top, max_turn_rate=top / lookahead)
 
 
-def _kinematics(base: Scenario, seed: int, opts: FieldOptions) -> dict[str, Any]:
-    """The field's ``kinematics`` and each agent's heading, as ``opts.kinematics`` says."""
-    robot = base.unicycle
+def unicycle_ticks(dt: float, robot: Unicycle, speed: float | None) -> int:
+    """How many ticks a field of unicycles runs for each of its base's ``dt`` s: 1, unless the
+    field's speed limit ``speed`` (m/s) is at least l/dt, the most a point l ahead of the axle
+    can move in a tick (world/unicycle.py: the exact arc map's range). Then the smallest k with
+    ``speed`` < l·k/dt: a robot that drives that fast on so short a lookahead needs a faster
+    control loop (crossing's robots, l = 0.05 m at 20 Hz: 1 m/s at most; 3 m/s at 80 Hz)."""
+    if speed is None:
+        return 1
+    return max(1, math.floor(speed * dt / robot.lookahead) + 1)
+
+
+def _robot(base: Scenario, opts: FieldOptions) -> Unicycle | None:
+    """The field's unicycle, as ``opts.kinematics`` says (None: single integrators)."""
     if opts.kinematics == "single":
-        robot = None
-    elif opts.kinematics == "unicycle" and robot is None:
-        robot = unicycle_for(base)
-    return {} if robot is None else unicycle_fields(base, seed, robot)
+        return None
+    if base.unicycle is None and opts.kinematics == "unicycle":
+        return unicycle_for(base, _speed_limit(base, opts))
+    return base.unicycle
+
+
+def _speed_limit(base: Scenario, opts: FieldOptions) -> float | None:
+    """m/s: the speed limit the field sets (the options', else the base's own), or None."""
+    return opts.speed_limit if opts.speed_limit is not None else base.control.speed_limit
 
 
 def unicycle_fields(base: Scenario, seed: int, robot: Unicycle) -> dict[str, Any]:
@@ -344,23 +361,28 @@ def _skeleton(
 ) -> dict[str, Any]:
     """The field's YAML mapping, obstacles still to come."""
     c = base.control
-    ticks = math.ceil(duration / base.dt - 1e-9)
+    robot = _robot(base, opts)
+    k = 1 if robot is None else unicycle_ticks(base.dt, robot, _speed_limit(base, opts))
+    dt = base.dt / k if k > 1 else base.dt
+    ticks = math.ceil(duration / dt - 1e-9)
+    faster = f", {k} ticks for each of the base's (unicycles: unicycle_ticks)" if k > 1 else ""
     return {
         "name": f"{base.name}-{mode}-{seed}",
-        "description": f"campaign field {seed} ({mode}) around {base.name}",
+        "description": f"campaign field {seed} ({mode}) around {base.name}{faster}",
         "dim": base.dim,
         "seed": seed,
-        "dt": base.dt,
-        "duration": round(ticks * base.dt, 9),
+        "dt": dt,
+        "duration": round(ticks * dt, 9),
         "agent_radius": base.agent_radius,
-        "tolerance_factor": base.tolerance_factor,
+        # the convergence tolerance, factor·β·dt, kept in metres on a finer tick
+        "tolerance_factor": base.tolerance_factor * k if k > 1 else base.tolerance_factor,
         "control": {
             **{f.name: _plain(getattr(c, f.name)) for f in dataclasses.fields(c)},
             **({} if opts.sigma_max is None else {"sigma_max": opts.sigma_max}),
             **({} if opts.safety is None else {"safety": opts.safety}),
             **({} if opts.speed_limit is None else {"speed_limit": opts.speed_limit}),
             **(
-                {"boundary_layer": round(opts.boundary_layer * c.beta * base.dt, 6)}
+                {"boundary_layer": round(opts.boundary_layer * c.beta * dt, 6)}
                 if opts.boundary_layer > 0
                 else {}
             ),
@@ -373,7 +395,7 @@ def _skeleton(
             if opts.position_error is not None
             else ({"position_error": base.position_error} if base.position_error else {})
         ),
-        **_kinematics(base, seed, opts),
+        **({} if robot is None else unicycle_fields(base, seed, robot)),
         "leader": _path_data(path),
         "reshape": [
             {"at": round(r.tick * base.dt, 9), "scale": r.scale, "rotate": r.rotate}

@@ -86,6 +86,7 @@ class PeopleOutcome:
     stalls: int = 0
     longest_stall: float = 0.0
     seconds: float = 0.0
+    dt: float = 0.0  # the field's tick (unicycles may run a finer one than the base's)
     error: str | None = None
     source: str = field(default="", repr=False)
 
@@ -93,6 +94,9 @@ class PeopleOutcome:
 def add_people(base: Scenario, seed: int, fields: FieldOptions, opts: PeopleOptions) -> Scenario:
     """Inside field ``seed`` around ``base`` with ``opts.count`` people crossing its path; the
     same inputs always give the same field, and its ``source`` reproduces it."""
+    if fields.kinematics == "unicycle" or (base.unicycle and fields.kinematics != "single"):
+        # unicycles are made, and ticked, for the robots' speed limit (fields.unicycle_ticks)
+        fields = dataclasses.replace(fields, speed_limit=opts.agent_speed)
     plain = make_field(base, seed, "inside", fields)
     data = yaml.safe_load(plain.source)
     data["duration"] = float(data["duration"]) + opts.extra
@@ -269,6 +273,7 @@ def run_people_task(task: PeopleTask) -> PeopleOutcome:
         stalls=summary.stalls,
         longest_stall=summary.longest_stall,
         seconds=time.process_time() - started,
+        dt=crowded.dt,
     )
     if touches or not success or summary.collisions:
         outcome = dataclasses.replace(outcome, source=crowded.source)
@@ -315,6 +320,7 @@ def people_report(
         "wall_s": round(wall, 2),
         "jobs": jobs,
         "cpu_s_per_field": round(sum(o.seconds for o in outcomes) / max(1, len(outcomes)), 3),
+        "dt": sorted({o.dt for o in ran}),
         "contacts": [{"seed": o.seed, "name": o.name, **c} for o in ran for c in o.contacts],
         "unsuccessful": [o.seed for o in ran if not o.success],
         "errors": [{"seed": o.seed, "error": o.error} for o in outcomes if o.error],
@@ -356,6 +362,13 @@ def render_people(rep: dict[str, Any]) -> str:
         f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "
         f"({rep['cpu_s_per_field']} CPU s per field, with its static twin)",
     ]
+    if rep.get("kinematics") == "unicycle":
+        ticks = ", ".join(f"{dt:g}" for dt in rep["dt"])
+        lines.insert(
+            1,
+            f"robots                 unicycles, dt {ticks} s (a contact: the body's "
+            "reach about its point's chord; fault: the point moved towards the person)",
+        )
     if rep["contacts"]:
         lines.append("contacts (fault: agent = it moved towards the person):")
     for c in rep["contacts"][:CONTACTS_SHOWN]:

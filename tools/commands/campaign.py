@@ -354,6 +354,8 @@ def _people(
         outcomes: list[PeopleOutcome]
         outcomes, jobs = where.run(todo, lambda _o: bar.update(1), run_people_task)
     rep = people_report(outcomes, crowd, time.perf_counter() - start, jobs)
+    if options.kinematics is not None:
+        rep["kinematics"] = options.kinematics
     if saved is not None:  # every field with a contact or without success, as scenario YAML
         saved.mkdir(parents=True, exist_ok=True)
         for o in outcomes:
