@@ -119,8 +119,10 @@ def _count(text: str) -> tuple[int, int]:
     "--kinematics",
     type=click.Choice(["single", "unicycle"]),
     help="Make every agent a single integrator or a unicycle (a base of single integrators "
-    "gets unicycles with l = (ρ − agent_radius)/2, |v| ≤ 1.5·β·√dim; headings drawn per field; "
-    "with --kind hard every field is drawn in 2-D) [default: the base's].",
+    "gets unicycles with l = (ρ − agent_radius)/2, |v| ≤ 1.5·max(β·√dim, the field's speed "
+    "limit); headings drawn per field; a field whose speed limit is l/dt or more runs k ticks "
+    "for each of its base's, so that it is not; with --kind hard every field is drawn in 2-D) "
+    "[default: the base's].",
 )
 @click.option(
     "--speed-limit", type=click.FloatRange(min=0.0, min_open=True), metavar="M_S",
