@@ -319,13 +319,19 @@ def unicycle_ticks(dt: float, robot: Unicycle, speed: float | None) -> int:
     return max(1, math.floor(speed * dt / robot.lookahead) + 1)
 
 
-def _robot(base: Scenario, opts: FieldOptions) -> Unicycle | None:
-    """The field's unicycle, as ``opts.kinematics`` says (None: single integrators)."""
-    if opts.kinematics == "single":
+def makes_unicycles(base: Scenario, opts: FieldOptions) -> bool:
+    """Whether the fields ``opts`` draws around ``base`` are unicycles."""
+    if opts.kinematics is None:
+        return base.unicycle is not None
+    return opts.kinematics == "unicycle"
+
+
+def _robot(base: Scenario, opts: FieldOptions, speed: float | None) -> Unicycle | None:
+    """The field's unicycle (None: single integrators): the base's own, or one made for it and
+    for the field's speed limit ``speed``."""
+    if not makes_unicycles(base, opts):
         return None
-    if base.unicycle is None and opts.kinematics == "unicycle":
-        return unicycle_for(base, _speed_limit(base, opts))
-    return base.unicycle
+    return base.unicycle or unicycle_for(base, speed)
 
 
 def _speed_limit(base: Scenario, opts: FieldOptions) -> float | None:
@@ -361,9 +367,10 @@ def _skeleton(
 ) -> dict[str, Any]:
     """The field's YAML mapping, obstacles still to come."""
     c = base.control
-    robot = _robot(base, opts)
-    k = 1 if robot is None else unicycle_ticks(base.dt, robot, _speed_limit(base, opts))
-    dt = base.dt / k if k > 1 else base.dt
+    speed = _speed_limit(base, opts)
+    robot = _robot(base, opts, speed)
+    k = 1 if robot is None else unicycle_ticks(base.dt, robot, speed)
+    dt = base.dt / k  # exactly base.dt for k = 1
     ticks = math.ceil(duration / dt - 1e-9)
     faster = f", {k} ticks for each of the base's (unicycles: unicycle_ticks)" if k > 1 else ""
     return {
@@ -375,7 +382,7 @@ def _skeleton(
         "duration": round(ticks * dt, 9),
         "agent_radius": base.agent_radius,
         # the convergence tolerance, factor·β·dt, kept in metres on a finer tick
-        "tolerance_factor": base.tolerance_factor * k if k > 1 else base.tolerance_factor,
+        "tolerance_factor": base.tolerance_factor * k,
         "control": {
             **{f.name: _plain(getattr(c, f.name)) for f in dataclasses.fields(c)},
             **({} if opts.sigma_max is None else {"sigma_max": opts.sigma_max}),

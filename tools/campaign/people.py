@@ -29,7 +29,7 @@ import yaml
 
 from shoal.bus.geometry import segment_distance
 from shoal.bus.path import path_position
-from shoal.tools.campaign.fields import FieldOptions, make_field
+from shoal.tools.campaign.fields import FieldOptions, make_field, makes_unicycles
 from shoal.tools.simulator import simulate
 from shoal.world.contacts import Contact, contacts
 from shoal.world.errors import ScenarioError, WorldError
@@ -94,8 +94,7 @@ class PeopleOutcome:
 def add_people(base: Scenario, seed: int, fields: FieldOptions, opts: PeopleOptions) -> Scenario:
     """Inside field ``seed`` around ``base`` with ``opts.count`` people crossing its path; the
     same inputs always give the same field, and its ``source`` reproduces it."""
-    if fields.kinematics == "unicycle" or (base.unicycle and fields.kinematics != "single"):
-        # unicycles are made, and ticked, for the robots' speed limit (fields.unicycle_ticks)
+    if makes_unicycles(base, fields):  # made, and ticked, for the robots' speed limit
         fields = dataclasses.replace(fields, speed_limit=opts.agent_speed)
     plain = make_field(base, seed, "inside", fields)
     data = yaml.safe_load(plain.source)
