@@ -20,7 +20,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before anything imports nu
 
 import click
 
-from shoal.tools.errors import SessionError
+from shoal.tools.errors import ExtraMissing, SessionError
+from shoal.tools.extras import extra_of
 
 COMMANDS = {
     "run": "shoal.tools.commands.run:run",
@@ -63,11 +64,18 @@ class LazyGroup(click.Group):
         return command
 
     def invoke(self, ctx: click.Context) -> Any:
-        """Run the subcommand; the library's errors a person can act on become its message."""
+        """Run the subcommand; the library's errors a person can act on become its message, and
+        so does an optional extra's module missing where no earlier check asked for it."""
         try:
             return super().invoke(ctx)
-        except SessionError as exc:
+        except (SessionError, ExtraMissing) as exc:
             raise click.ClickException(str(exc)) from None
+        except ModuleNotFoundError as exc:
+            extra = extra_of(exc)
+            if extra is None:
+                raise
+            needed_by = f"shoal {ctx.invoked_subcommand}"
+            raise click.ClickException(str(ExtraMissing(extra, needed_by, str(exc)))) from None
 
 
 @click.group(

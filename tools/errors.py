@@ -6,3 +6,13 @@ from __future__ import annotations
 
 class SessionError(RuntimeError):
     """A Zenoh session cannot be configured or opened; the message says why and what to check."""
+
+
+class ExtraMissing(ImportError):
+    """An optional extra (pyproject.toml) that a command needs is not installed."""
+
+    def __init__(self, extra: str, needed_by: str, reason: str) -> None:
+        super().__init__(
+            f"{needed_by} needs the {extra} extra ({reason}): pip install 'shoal[{extra}]'"
+        )
+        self.extra = extra

@@ -40,6 +40,7 @@ from shoal.tools.campaign.runner import save_failures as write_failures
 from shoal.tools.campaign.swarms import Faults, render_swarms, run_swarms, swarm_report
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
+from shoal.tools.extras import require
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from shoal.tools.progress import progress_bar
 from shoal.tools.simulator import simulate
@@ -291,6 +292,8 @@ def campaign(
         layer = None if swarm_safety_layer is None else SafetyLayer(swarm_safety_layer)
         _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd, layer, faults)
         return
+    if dask is not None:
+        require("cluster", "--dask")  # before a field is drawn
     where = Workers(max(1, jobs), dask)
     if crowd is not None:
         _people(scn, seed, count, options, crowd, where, save_failures, as_json)

@@ -17,6 +17,7 @@ from shoal.bus.acl import MONITOR
 from shoal.bus.keys import Keys
 from shoal.bus.links import still_present, watch_presence
 from shoal.bus.runtime import ArrivalKind, Inbox, announce_ready, exit_on_signals, warn
+from shoal.tools.extras import require
 from shoal.tools.procs.children import GuardSpec, click_options
 from shoal.tools.procs.session import (
     PROMPT_CONNECT_MS,
@@ -25,7 +26,7 @@ from shoal.tools.procs.session import (
     session_config,
 )
 from shoal.tools.ros2 import rmw
-from shoal.tools.ros2.bridge import ZERO
+from shoal.tools.ros2.bridge import zero
 from shoal.tools.ros2.node import RMW_ZENOHD, RosSession
 
 
@@ -34,6 +35,7 @@ from shoal.tools.ros2.node import RMW_ZENOHD, RosSession
 def guard(**params: Any) -> None:
     """Send run RUN's ROS 2 robots a zero Twist when its world goes away, then exit."""
     exit_on_signals()
+    require("ros2", "shoal guard")
     spec = GuardSpec.of(params)
     keys = Keys(spec.run_id)
     endpoints = spec.ros_connect or (RMW_ZENOHD,)
@@ -58,8 +60,9 @@ def guard(**params: Any) -> None:
                 elif seen and not still_present(session, keys.alive_world):
                     break  # down, and a second look agrees
         finally:
+            halt = zero()
             for stop in stops:
-                stop.put(ZERO)
+                stop.put(halt)
             warn(f"guard: the world of run {spec.run_id} is gone; {len(stops)} robots stopped")
             held.undeclare()
             node.close()

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 
 from shoal.bus.runtime import warn
+from shoal.tools.extras import require
 from shoal.world.errors import ScenarioError, ScenarioWarning
 from shoal.world.loader import load_scenario
 from shoal.world.scenario import Scenario
@@ -62,14 +63,9 @@ def live_view(
 ) -> Iterator[LiveView]:
     """The live view's server (tools/foxglove/live.py), up (its URL said on stderr) until the
     block ends; a missing SDK or a taken port is a one-line error."""
-    try:
-        from shoal.tools.foxglove.live import LiveError, LiveView
-    except ModuleNotFoundError as exc:
-        if exc.name != "foxglove":
-            raise
-        raise click.ClickException(
-            "--live needs the Foxglove SDK: pip install 'shoal[live]' (or foxglove-sdk)"
-        ) from None
+    require("live", "--live")
+    from shoal.tools.foxglove.live import LiveError, LiveView
+
     with contextlib.ExitStack() as stack:
         try:
             view = stack.enter_context(LiveView(scenario, run_id, port=port, source=source))

@@ -9,6 +9,7 @@ import click
 
 from shoal.bus.runtime import announce_ready, exit_on_signals
 from shoal.tools.commands.options import load_for_cli
+from shoal.tools.extras import require
 from shoal.tools.procs.children import RobotsSpec, click_options
 from shoal.tools.procs.session import open_session, session_config
 from shoal.tools.ros2.config import ros_config
@@ -29,6 +30,7 @@ def robots(**params: Any) -> None:
     over rmw_zenoh's keys, liveliness tokens and attachments: a ROS 2 node on rmw_zenoh sees
     them as robots. Each stops after --cmd-timeout s without a command."""
     exit_on_signals()
+    require("ros2", "shoal robots")
     spec = RobotsSpec.of(params)
     if spec.jitter_ms > spec.latency_ms:
         raise click.BadParameter(

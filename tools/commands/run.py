@@ -23,6 +23,7 @@ from shoal.tools.commands.options import (
 )
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.deploy.certs import CertError
+from shoal.tools.extras import require
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished
 from shoal.tools.procs.children import (
@@ -174,6 +175,8 @@ def run(
             "needs --clock realtime at --speed 1: robots move on the wall clock",
             param_hint="--robots",
         )
+    if robots["robots"] == "ros2":
+        require("ros2", "--robots ros2")  # here, not in the world once the swarm is up
     if speed != 1.0 and clock != Clock.REALTIME:
         raise click.BadParameter(
             "needs --clock realtime: a lockstep run goes as fast as its processes can, and "

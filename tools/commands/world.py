@@ -16,6 +16,7 @@ from shoal.bus.seam import ZenohBus
 from shoal.bus.types import Clock
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
+from shoal.tools.extras import require
 from shoal.tools.procs.children import WorldSpec, click_options
 from shoal.tools.procs.session import (
     PROMPT_CONNECT_MS,
@@ -65,6 +66,7 @@ def robots_of(spec: WorldSpec, scn: Scenario) -> Iterator[Plant | None]:
     if scn.dim != 2:
         raise click.BadParameter(f"ROS 2 ground robots drive in the plane; {scn.name} is "
                                  f"{scn.dim}-D", param_hint="--robots")  # fmt: skip
+    require("ros2", "--robots ros2")
     from shoal.tools.ros2.bridge import Ros2Robots
     from shoal.tools.ros2.config import ros_config
     from shoal.tools.ros2.node import RosSession

@@ -26,7 +26,12 @@ from shoal.world.plant import Observed, PlantError
 from shoal.world.unicycle import wheel_command
 
 POSE_TOPICS = {rmw.ODOMETRY: "odom", rmw.POSE_STAMPED: "pose"}
-ZERO = rmw.twist((0.0, 0.0), 0.0)
+
+
+def zero() -> bytes:
+    """A Twist that stops a robot, in CDR: made when sent, not at import (rosbags, which
+    serialises it, is the ros2 extra, and ``shoal --help`` imports this module)."""
+    return rmw.twist((0.0, 0.0), 0.0)
 
 
 class Ros2Robots:
@@ -133,8 +138,9 @@ class Ros2Robots:
         return out
 
     def stop(self) -> None:
+        stop = zero()
         for cmd in self._cmd:
-            cmd.put(ZERO)
+            cmd.put(stop)
             self.sent += 1
 
     def report(self) -> dict[str, Any]:
