@@ -3,7 +3,8 @@
 
 Everything else about the package is in pyproject.toml. The modules in ``COMPILED`` run for every
 agent every tick: the controller, the safety filter, the small-vector arithmetic, a unicycle's
-step over its arc, and the reference simulator's tick loop that calls them in a campaign. mypyc
+step over its arc, the run's tick (world/step.py) and the reference simulator's loop that
+drives it in a campaign. mypyc
 compiles them, and the messages they pass each other (bus/messages.py), from the same
 type-annotated Python into C extensions; the Python stays beside them in the package and is
 what runs wherever they are missing. Either gives the same bits:
@@ -51,6 +52,7 @@ COMPILED = [
     "shoal/agent/leader.py",
     "shoal/world/kinematics.py",
     "shoal/world/unicycle.py",
+    "shoal/world/step.py",
     "shoal/tools/simulator.py",
 ]
 # The mypyc runtime shared by the compiled modules: an extension inside shoal, never top level.

@@ -27,7 +27,7 @@ from shoal.agent.leader import Known, lead, remember, steer
 from shoal.bus.geometry import Vector, VectorLike, norm, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.path import leader_velocity
-from shoal.bus.safety import safe_velocity
+from shoal.bus.safety import SafetyFilter
 from shoal.bus.types import AgentConfig, Waypoints, config_problem
 
 
@@ -102,6 +102,7 @@ class Controller:
         self.config = config
         self.params = config.params
         self.filtered = self.params.filtered
+        self.safety = SafetyFilter.of(self.params, config.agent_id, config.dt, config.limits)
         self.offset = tuple(float(x) for x in config.offset)
         self.neighbour_offsets = tuple(tuple(float(x) for x in d) for d in config.neighbour_offsets)
         tau = self.params.heading_tau
@@ -313,18 +314,8 @@ class Controller:
         out = tuple([float(c) for c in v])
         filtered = False
         if self.filtered:
-            result = safe_velocity(
-                out,
-                sensing,
-                cfg.agent_id,
-                dt=cfg.dt,
-                margin=p.safety_margin,
-                half_separation=p.separation / 2.0,
-                speed_limit=p.speed_limit,
-                previous=None if self._in_band(lag) else memory.heading,
-                limits=cfg.limits,
-                heading=sensing.heading,
-            )
+            previous = None if self._in_band(lag) else memory.heading
+            result = self.safety(out, sensing, previous=previous)
             if result.active:
                 out, filtered = result.velocity, True
         epoch = epoch_of(sensing.tick, p.rounds)

@@ -29,11 +29,11 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Final
+from typing import Any, Final
 
 from shoal.bus.geometry import right_of, vdot
 from shoal.bus.messages import Mover, Sensing, picklable
-from shoal.bus.types import LimitSide, Vector
+from shoal.bus.types import ControlParams, LimitSide, Vector
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
 # only keeps an exactly-on-the-boundary solution from failing its own check.
@@ -460,87 +460,172 @@ def keep_going(
     return tuple(out) if changed else None
 
 
+class SafetyFilter:
+    """One agent's safety filter, configured once per run (the Robotarium's
+    ``create_si_barrier_certificate`` likewise returns a configured function): call it every
+    tick with what changes every tick.
+
+    ``agent_id``: whose filter (its rows against a neighbour at the same position need it);
+    ``dt`` s; ``margin`` ρ and ``half_separation`` R, m; ``speed_limit`` v_max, m/s;
+    ``limits``: a unicycle's polygon of point velocities in its body frame (world/limits.py),
+    met as rows at the heading of each tick's sensing (:func:`limit_rows`), so the (v, ω) it
+    holds keeps its speed, turn-rate and wheel limits (docs/safety.md, Unicycles);
+    ``right_hand`` False: the bare projection (no sidestep, no keep-going); ``agents`` False:
+    leave out the rows of the agents a sensing names (a robot's own layer meets its cells from
+    a common snapshot instead, as ``extra`` rows: world/onboard.py)."""
+
+    agent_id: Final[int]
+    dt: Final[float]
+    margin: Final[float]
+    half_separation: Final[float]
+    speed_limit: Final[float]
+    limits: Final[tuple[LimitSide, ...]]
+    right_hand: Final[bool]
+    agents: Final[bool]
+
+    def __init__(
+        self,
+        agent_id: int,
+        *,
+        dt: float,
+        margin: float,
+        half_separation: float,
+        speed_limit: float,
+        limits: Sequence[LimitSide] = (),
+        right_hand: bool = True,
+        agents: bool = True,
+    ) -> None:
+        self.agent_id = agent_id
+        self.dt = dt
+        self.margin = margin
+        self.half_separation = half_separation
+        self.speed_limit = speed_limit
+        self.limits = tuple(limits)
+        self.right_hand = right_hand
+        self.agents = agents
+
+    @staticmethod
+    def of(
+        params: ControlParams,
+        agent_id: int,
+        dt: float,
+        limits: Sequence[LimitSide] = (),
+        *,
+        agents: bool = True,
+    ) -> SafetyFilter:
+        """Agent ``agent_id``'s filter with a run's margins, separation and speed limit."""
+        return SafetyFilter(
+            agent_id,
+            dt=dt,
+            margin=params.safety_margin,
+            half_separation=params.separation / 2.0,
+            speed_limit=params.speed_limit,
+            limits=limits,
+            agents=agents,
+        )
+
+    def __call__(
+        self,
+        nominal: Vector,
+        sensing: Sensing,
+        *,
+        previous: Vector | None = None,
+        extra: Sequence[Row] = (),
+    ) -> Filtered:
+        """The whole filter for one tick: cap the nominal at the speed limit, project it onto
+        the rows of ``sensing`` (and ``extra``), and where that leaves the agent pressed
+        against a row, project the right-hand turn of the nominal instead (:func:`sidestep`).
+        Given the agent's velocity averaged over the last ticks (``previous``), an agent
+        pressed against an obstacle goes on along it the way it was going rather than back
+        (:func:`keep_going`), and one going nowhere turns right of an agent in its way
+        (:func:`sidestep`'s ``held``). ``active`` is True when the result differs from the
+        nominal as given (the cap alone counts). The result always meets every row and is never
+        faster than the capped nominal; a feasible nominal comes back unchanged."""
+        return self._filter(nominal, sensing, previous, extra, sensing.heading)
+
+    def _filter(
+        self,
+        nominal: Vector,
+        sensing: Sensing,
+        previous: Vector | None,
+        extra: Sequence[Row],
+        heading: float,
+    ) -> Filtered:
+        dt, margin, half_separation = self.dt, self.margin, self.half_separation
+        speed_limit, limits, agent_id = self.speed_limit, self.limits, self.agent_id
+        capped = cap_speed(nominal, speed_limit)
+        if limits:
+            capped = cap_to_limits(capped, limits, heading)
+        speed = math.hypot(*capped)
+        if not self.agents:
+            sensing = dataclasses.replace(sensing, agent_ids=(), agent_positions=())
+        rows = rows_for(
+            sensing,
+            agent_id,
+            margin=margin,
+            half_separation=half_separation,
+            reach=speed * dt,
+            dt=dt,
+        )
+        rows += extra
+        if limits:
+            rows += limit_rows(limits, heading, speed, dt)
+        if any(r.bound > 0.0 for r in rows):  # a moving obstacle within reach of the guard
+            every = rows_for(
+                sensing, agent_id, margin=margin, half_separation=half_separation,
+                reach=speed_limit * dt, dt=dt,
+            )  # fmt: skip
+            every += extra
+            if limits:
+                every += limit_rows(limits, heading, speed_limit * _CAP_SLACK, dt)
+            out = evade(capped, every, dt, speed_limit)
+            return dataclasses.replace(out, active=out.velocity != nominal)
+        out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
+        if out.active and self.right_hand:
+            held = previous is not None and vdot(previous, previous) < vdot(capped, capped) * (
+                SIDESTEP_BELOW**2
+            )
+            turned = sidestep(capped, out.velocity, rows, dt, held=held)
+            if turned is not None:
+                again = project(turned, rows, dt)
+                if not again.fallback:
+                    out = Filtered(again.velocity, active=True)
+            if previous is not None and any(previous):
+                onward = keep_going(capped, out.velocity, previous, rows, dt)
+                if onward is not None:
+                    again = project(onward, rows, dt)
+                    kept = vdot(again.velocity, again.velocity)
+                    # Only if the way onward is open: blocked there (another agent, another row),
+                    # going back is the agent's way out, and insisting held it for good (measured).
+                    if not again.fallback and kept >= SIDESTEP_BELOW**2 * vdot(
+                        out.velocity, out.velocity
+                    ):
+                        out = Filtered(again.velocity, active=True)
+            way = slide_right(capped, out.velocity, rows, dt)
+            if way is not None:
+                out = Filtered(way, active=True)
+        if capped is not nominal and not out.active:
+            return Filtered(out.velocity, active=True)
+        return out
+
+
 def safe_velocity(
     nominal: Vector,
     sensing: Sensing,
     agent_id: int,
     *,
-    dt: float,
-    margin: float,
-    half_separation: float,
-    speed_limit: float,
-    right_hand: bool = True,
     previous: Vector | None = None,
     extra: Sequence[Row] = (),
-    agents: bool = True,
-    limits: Sequence[LimitSide] = (),
-    heading: float = 0.0,
+    heading: float | None = None,
+    **settings: Any,
 ) -> Filtered:
-    """The whole filter of one agent: cap the nominal at ``speed_limit`` (m/s), project it onto
-    the rows of ``sensing``, and where that leaves the agent pressed against a row, project the
-    right-hand turn of the nominal instead (:func:`sidestep`; ``right_hand`` False: the bare
-    projection, and ``previous`` is not used). Given the agent's heading, its velocity
-    averaged over the last ticks (``previous``), an agent pressed against an obstacle goes on
-    along it the way it was going rather than back (:func:`keep_going`), and one going nowhere
-    turns right of an agent in its way (:func:`sidestep`'s ``held``). ``active`` is True when
-    the result differs from the nominal as given (the cap alone counts). The result always
-    meets every row and is never faster than the capped nominal; a feasible nominal comes back
-    unchanged.
-
-    ``extra`` rows are met as well (a robot's own layer adds its cells from a common snapshot,
-    world/onboard.py); ``agents`` False leaves out the rows of the agents in ``sensing``.
-    ``limits``: a unicycle's polygon of point velocities in its body frame, met as rows at its
-    ``heading`` (rad; :func:`limit_rows`), so the (v, ω) it holds keeps its speed, turn-rate and
-    wheel limits (docs/safety.md, Unicycles)."""
-    capped = cap_speed(nominal, speed_limit)
-    if limits:
-        capped = cap_to_limits(capped, limits, heading)
-    speed = math.hypot(*capped)
-    if not agents:
-        sensing = dataclasses.replace(sensing, agent_ids=(), agent_positions=())
-    rows = rows_for(
-        sensing, agent_id, margin=margin, half_separation=half_separation, reach=speed * dt, dt=dt
+    """One call of a filter configured for it (tests, one-off checks): ``settings`` are
+    :class:`SafetyFilter`'s; ``heading`` (rad) in place of the sensing's. A process configures
+    its filter once and calls it every tick."""
+    f = SafetyFilter(agent_id, **settings)
+    return f._filter(
+        nominal, sensing, previous, extra, sensing.heading if heading is None else heading
     )
-    rows += extra
-    if limits:
-        rows += limit_rows(limits, heading, speed, dt)
-    if any(r.bound > 0.0 for r in rows):  # a moving obstacle within reach of the guard
-        every = rows_for(
-            sensing, agent_id, margin=margin, half_separation=half_separation,
-            reach=speed_limit * dt, dt=dt,
-        )  # fmt: skip
-        every += extra
-        if limits:
-            every += limit_rows(limits, heading, speed_limit * _CAP_SLACK, dt)
-        out = evade(capped, every, dt, speed_limit)
-        return dataclasses.replace(out, active=out.velocity != nominal)
-    out = project(capped, rows, dt) if rows else Filtered(capped, active=False)
-    if out.active and right_hand:
-        held = previous is not None and vdot(previous, previous) < vdot(capped, capped) * (
-            SIDESTEP_BELOW**2
-        )
-        turned = sidestep(capped, out.velocity, rows, dt, held=held)
-        if turned is not None:
-            again = project(turned, rows, dt)
-            if not again.fallback:
-                out = Filtered(again.velocity, active=True)
-        if previous is not None and any(previous):
-            onward = keep_going(capped, out.velocity, previous, rows, dt)
-            if onward is not None:
-                again = project(onward, rows, dt)
-                kept = vdot(again.velocity, again.velocity)
-                # Only if the way onward is open: blocked there (another agent, another row),
-                # going back is the agent's way out, and insisting held it for good (measured).
-                if not again.fallback and kept >= SIDESTEP_BELOW**2 * vdot(
-                    out.velocity, out.velocity
-                ):
-                    out = Filtered(again.velocity, active=True)
-        way = slide_right(capped, out.velocity, rows, dt)
-        if way is not None:
-            out = Filtered(way, active=True)
-    if capped is not nominal and not out.active:
-        return Filtered(out.velocity, active=True)
-    return out
 
 
 def _towards_limit(inner: Vector, outer: Vector, limit: float) -> Vector:

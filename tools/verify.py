@@ -4,7 +4,7 @@ reference simulator and compare every recorded tick, bit for bit."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from shoal.bus.types import Clock
@@ -57,18 +57,8 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
         if t.tick > last:
             break
         r = recorded.get(t.tick)
-        same = (
-            r is not None
-            and r.positions == tuple(map(tuple, t.positions.tolist()))
-            and r.velocities == tuple(map(tuple, t.velocities.tolist()))
-            and r.omega == tuple(s.omega for s in t.states)
-            and r.bid == tuple(s.bid for s in t.states)
-            and r.sigma == tuple(s.sigma for s in t.states)
-            and r.theta == tuple(s.theta for s in t.states)
-            and r.mover_centres == t.movers.centres
-            and r.mover_velocities == t.movers.velocities
-            and r.headings == (() if t.headings is None else tuple(t.headings.tolist()))
-        )
+        # Every field but who was alive: the reference has no processes to lose.
+        same = r is not None and replace(t, alive=r.alive) == r
         if same:
             matching += 1
         elif r is not None and first_bad is None:

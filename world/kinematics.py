@@ -11,12 +11,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numpy as np
-
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Mover, Sensing
-from shoal.bus.safety import safe_velocity
-from shoal.bus.types import ControlParams, LimitSide, Vector
+from shoal.bus.safety import SafetyFilter
+from shoal.bus.types import Vector
 from shoal.world.unicycle import step as unicycle_step
 
 
@@ -33,11 +31,6 @@ def move(
     if lookaheads is None or headings is None:
         return integrate(positions, velocities, dt), None
     return unicycle_step(positions, headings, velocities, lookaheads, dt)
-
-
-def largest_change(filtered: FloatArray, commanded: FloatArray) -> float:
-    """m/s: the most a filter changed any agent's command ((n, dim) both; 0 when none)."""
-    return float(np.linalg.norm(filtered - commanded, axis=1).max(initial=0.0))
 
 
 def integrate(positions: FloatArray, velocities: FloatArray, dt: float) -> FloatArray:
@@ -137,39 +130,24 @@ def _within(a: Vector, b: Vector, radius: float) -> bool:
 
 
 def actuate(
-    sensings: Sequence[Sensing],
-    velocities: FloatArray,
-    params: ControlParams,
-    dt: float,
-    limits: Sequence[tuple[LimitSide, ...]] = (),
+    sensings: Sequence[Sensing], velocities: FloatArray, filters: Sequence[SafetyFilter]
 ) -> tuple[FloatArray, int]:
     """The velocities the world lets the agents hold this tick, and how many it corrected.
 
-    With ``params.safety == "filter"`` the world applies the agents' own safety filter
-    (bus/safety.py) to each command with the tick's fresh sensing, as a robot's onboard safety
-    layer would. In lockstep every command was computed from exactly this sensing and is
-    already feasible, so it comes back unchanged, bit for bit (0 corrected); in realtime a
-    command computed from an older position is projected again before it moves the agent.
-    ``velocities`` (n, dim) m/s in agent-id order; a row of zeros (an agent held still) is
-    always feasible. ``limits``: each agent's unicycle limits (world/limits.py; empty: a
-    single integrator's none), met at the heading its sensing gives.
+    The world applies each agent's own safety filter (``filters``, agent-id order; bus/safety.py)
+    to its command with the tick's fresh sensing, as a robot's onboard safety layer would. In
+    lockstep every command was computed from exactly this sensing and is already feasible, so
+    it comes back unchanged, bit for bit (0 corrected); in realtime a command computed from an
+    older position is projected again before it moves the agent. ``velocities`` (n, dim) m/s
+    in agent-id order; a row of zeros (an agent held still) is always feasible. No filters
+    (``safety: paper``): applied as sent.
     """
-    if not params.filtered:
+    if not filters:
         return velocities, 0
     out = velocities.copy()
     corrected = 0
     for i, sensing in enumerate(sensings):
-        result = safe_velocity(
-            tuple(velocities[i].tolist()),
-            sensing,
-            i + 1,
-            dt=dt,
-            margin=params.safety_margin,
-            half_separation=params.separation / 2.0,
-            speed_limit=params.speed_limit,
-            limits=limits[i] if limits else (),
-            heading=sensing.heading,
-        )
+        result = filters[i](tuple(velocities[i].tolist()), sensing)
         if result.active:
             out[i] = result.velocity
             corrected += 1

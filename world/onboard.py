@@ -41,7 +41,7 @@ import numpy as np
 
 from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import Row, safe_velocity
+from shoal.bus.safety import Row, SafetyFilter
 from shoal.bus.types import ControlParams, LimitSide, Vector
 
 HEARD_WITHIN = 256  # ticks: an older last-heard position counts as never heard (near)
@@ -142,9 +142,22 @@ class OnboardLayers:
     since it is late or lost.
     """
 
-    def __init__(self, params: ControlParams, dt: float, epoch: int, link: Link) -> None:
+    def __init__(
+        self,
+        params: ControlParams,
+        dt: float,
+        epoch: int,
+        link: Link,
+        n: int,
+        limits: Sequence[tuple[LimitSide, ...]] = (),
+    ) -> None:
         if epoch < 1:
             raise ValueError(f"epoch: need at least 1 tick, got {epoch}")
+        # Each robot's filter, its own sensing's agents left out: its cells stand for them.
+        self.filters = [
+            SafetyFilter.of(params, i + 1, dt, limits[i] if limits else (), agents=False)
+            for i in range(n)
+        ]
         self.params = params
         self.dt = dt
         self.epoch = epoch
@@ -225,24 +238,17 @@ class OnboardLayers:
                 out.append(plane_row(now, own, other, self.half, lower=i < q))
         return out, leeway
 
-    def act(
-        self,
-        k: int,
-        sensings: Sequence[Sensing],
-        commanded: FloatArray,
-        limits: Sequence[tuple[LimitSide, ...]] = (),
-    ) -> Held:
+    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> Held:
         """Every robot's velocity for tick k: its command (``commanded``, (n, dim) m/s) through
         its own layer, which knows where its robot is from its own sensing (an estimate, with a
         scenario's position error: world.kinematics.estimated) and broadcasts that; a
-        unicycle's layer meets its ``limits`` too (world/limits.py, per robot; empty: none)."""
+        unicycle's layer meets its limits too (world/limits.py)."""
         rows = [s.position for s in sensings]
         self.history[k] = rows
         if k % self.epoch == 0 or not self.snapshot:
             self._begin(k, rows)
         out = np.zeros_like(commanded)
         changed = standing = 0
-        p = self.params
         for i, sensing in enumerate(sensings):
             cell, leeway = self.cell(i, k, rows[i])
             wanted = tuple(commanded[i].tolist())
@@ -250,19 +256,7 @@ class OnboardLayers:
                 standing += 1
                 changed += any(wanted)
                 continue
-            result = safe_velocity(
-                wanted,
-                sensing,
-                i + 1,
-                dt=self.dt,
-                margin=p.safety_margin,
-                half_separation=self.half,
-                speed_limit=p.speed_limit,
-                extra=cell,
-                agents=False,
-                limits=limits[i] if limits else (),
-                heading=sensing.heading,
-            )
+            result = self.filters[i](wanted, sensing, extra=cell)
             velocity = result.velocity
             if leeway < math.inf:
                 velocity = within(velocity, rows[i], self.snapshot[i], leeway, self.dt)

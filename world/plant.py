@@ -1,6 +1,6 @@
-"""Real robots in place of the world's kinematics (issue 33; docs/ros2.md): what the world needs
-of them, as a protocol, so that the world's loop stays the same whether it integrates its own
-kinematics or drives robots (tools/ros2/bridge.py drives ROS 2 robots over rmw_zenoh).
+"""What moves the agents' bodies, as a protocol, so that one tick (world/step.py) serves whether
+the world integrates its own kinematics (:class:`Kinematics`) or drives real robots
+(tools/ros2/bridge.py drives ROS 2 robots over rmw_zenoh; docs/ros2.md).
 
 Each tick the world asks a :class:`Plant` where every agent's point is (a unicycle's is l ahead of
 its axle) and which robots' poses are too old to trust (those are held still, as a robot whose
@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from shoal.bus.geometry import FloatArray
+from shoal.world.kinematics import move
 
 
 class PlantError(RuntimeError):
@@ -42,13 +43,50 @@ class Plant(Protocol):
     def observe(self) -> Observed:
         """Every agent's point now."""
 
-    def send(self, velocities: FloatArray, headings: FloatArray | None) -> FloatArray:
+    def send(self, velocities: FloatArray, headings: FloatArray | None) -> FloatArray | None:
         """Drive each agent's point at ``velocities`` (n, dim) m/s for a tick, from the
         ``headings`` last observed; what each robot was sent, (n, 3): linear x, linear y,
-        angular z in its own frame (the log records it)."""
+        angular z in its own frame (the log records it), or None for a simulated plant."""
 
     def stop(self) -> None:
         """A zero command to every robot."""
 
     def report(self) -> dict[str, Any]:
         """Summary entries: what was heard, dropped and sent."""
+
+
+class Kinematics:
+    """The world's own kinematics as a plant: single integrators, unicycles along their exact
+    arcs, or a mix (world/unicycle.py), moved by exactly one tick of simulated time per
+    :meth:`send`, whatever the wall clock does, so a lockstep run stays deterministic.
+    ``lookaheads`` (n,) m: each unicycle's l (0 for a mixed formation's single integrators;
+    None: every agent a single integrator); ``headings`` (n,) rad at the start."""
+
+    def __init__(
+        self,
+        positions: FloatArray,
+        headings: FloatArray | None,
+        lookaheads: FloatArray | None,
+        dt: float,
+    ) -> None:
+        self.positions = positions
+        self.headings = headings if lookaheads is not None else None
+        self.lookaheads = lookaheads
+        self.dt = dt
+
+    def wait_ready(self, timeout: float) -> None:
+        return None
+
+    def observe(self) -> Observed:
+        return Observed(self.positions, self.headings, frozenset())
+
+    def send(self, velocities: FloatArray, headings: FloatArray | None) -> None:
+        self.positions, self.headings = move(
+            self.positions, self.headings, velocities, self.lookaheads, self.dt
+        )
+
+    def stop(self) -> None:
+        return None
+
+    def report(self) -> dict[str, Any]:
+        return {}

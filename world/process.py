@@ -1,7 +1,7 @@
 """The world process: the lockstep clock, kinematics and sensing for every agent, over Zenoh.
 
-A thin loop around :meth:`shoal.world.obstacles.Obstacles.sense` and
-:func:`shoal.world.kinematics.integrate`:
+A thin loop of I/O around the run's tick (:class:`shoal.world.step.Step`, which the reference
+simulator drives too):
 each tick it sends every live agent its sensing, waits until every live agent's command for the
 tick is in, publishes the tick's ground truth, and integrates. It serves each agent its
 configuration (a queryable) and follows agents' presence by liveliness: an agent whose token
@@ -23,19 +23,18 @@ import numpy as np
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys, agent_of
-from shoal.bus.messages import AgentState, Command, Event, RobotsRecord, TickRecord
+from shoal.bus.messages import AgentState, Command, Event, RobotsRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import AgentConfig, Clock, SafetyLayer, Waypoints
-from shoal.world.kinematics import actuate, largest_change, move
+from shoal.world.layers import make_layer
 from shoal.world.metrics import summarize
-from shoal.world.movers import MoverState
-from shoal.world.obstacles import Obstacles
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
-from shoal.world.plant import Observed, Plant, PlantError
+from shoal.world.plant import Kinematics, Observed, Plant, PlantError
 from shoal.world.scenario import Scenario
-from shoal.world.trajectory import Recorder
+from shoal.world.step import Report, Step
+from shoal.world.trajectory import Trajectory
 from shoal.world.watch import LeaderWatch
 
 
@@ -167,120 +166,90 @@ class World(Declarations):
         """Run every tick; returns (and publishes) the summary with the run's timing. Real
         robots (``options.plant``) are stopped however the run ends: finished, the leader lost,
         an error, Ctrl-C."""
-        plant = self.options.plant
+        step = self._step()
         try:
-            return self._run(plant)
+            return self._run(step)
         finally:
-            if plant is not None:
-                plant.stop()
+            step.plant.stop()
 
-    def _run(self, plant: Plant | None) -> dict[str, Any]:
-        s = self.scenario
-        obstacles = Obstacles.of(s)
-        crowd = obstacles.start(s)
-        positions = s.initial_positions
-        bodies = s.lookaheads  # unicycles: l per agent (0: a single integrator of a mixed swarm)
-        headings = s.initial_headings if bodies is not None else None
-        pose_holds = 0  # robot-ticks held still because the robot's own pose was too old
-        stale_robots: frozenset[int] = frozenset()
-        recorder = Recorder(s.dt, s.n, s.dim, s.steps, movers=len(s.mover_ids), lookahead=bodies)
+    def _step(self) -> Step:
+        """The run's tick: its safety layer and what moves the agents, configured once."""
+        s, options = self.scenario, self.options
         params = s.params()
-        corrected = 0  # agent-ticks whose command the actuator's safety layer changed
-        layer = self.layer
-        epoch = epoch_ticks(self.options.layer_epoch, s.dt)
-        link = self.options.link or Link()
-        onboard = OnboardLayers(params, s.dt, epoch, link) if layer == SafetyLayer.ONBOARD else None
-        if onboard is not None and onboard.far > s.control.sensing_radius:
+        epoch = epoch_ticks(options.layer_epoch, s.dt)
+        far = OnboardLayers.far_for(params, s.dt, epoch)
+        if self.layer == SafetyLayer.ONBOARD and far > s.control.sensing_radius:
             self._event(
                 0, 2, 0,
                 f"onboard layer: with a speed limit of {s.speed_limit:g} m/s any two robots "
-                f"within {onboard.far:.1f} m may meet within an epoch, so robots near each other "
+                f"within {far:.1f} m may meet within an epoch, so robots near each other "
                 "stand at every snapshot until it arrives; set control.speed_limit to your "
                 "robots' own (docs/safety.md, Without a referee)",
             )  # fmt: skip
-        standing = 0  # onboard: robot-ticks held still waiting for a neighbour's snapshot
-        would, largest = 0, 0.0  # no referee: what it would have changed, and by how much
-        latest = self.latest
+        layer = make_layer(self.layer, params, s.n, s.dt, s.limits, epoch=epoch, link=options.link)
+        plant = options.plant or Kinematics(
+            s.initial_positions, s.initial_headings, s.lookaheads, s.dt
+        )
+        return Step(s, layer, plant)
+
+    def _run(self, step: Step) -> dict[str, Any]:
+        """The tick loop: I/O around :class:`Step`."""
+        s = self.scenario
         clock = _Clock(
             realtime=self.options.clock == Clock.REALTIME, period=s.dt / self.options.speed
         )
         watch = LeaderWatch(s)
         for k in range(s.steps):
-            if plant is not None:  # real robots: where they report they are, not integrated
-                seen = plant.observe()
-                positions, headings = seen.positions, seen.headings
-                for i in sorted(seen.stale - stale_robots):
-                    self._event(k, 3, i, f"robot {i}'s pose is stale; held still until it reports")
-                stale_robots = seen.stale
-            said = watch.update(k, positions[0])
+            clock.sent(k)
+            sensings = step.sense(k)
+            for i in sorted(step.newly_stale):
+                self._event(k, 3, i, f"robot {i}'s pose is stale; held still until it reports")
+            said = watch.update(k, step.seen.positions[0])
             if said is not None:
                 self._event(k, 3 if watch.trapped else 2, 1, said)
-            clock.sent(k)
-            crowd, sensings = obstacles.sense(
-                k, positions, crowd, s.control.sensing_radius, headings
-            )
             for i in sorted(self.alive):
                 self.sensing_out[i].put(codec.encode_sensing(sensings[i - 1]))
             self._collect(k, clock)
-            reports = {i: latest[i] for i in sorted(self.alive) if i in latest}
-            if self.aborted is not None:
-                reports = {}  # the leader is gone: nobody moves any more, and this tick is the last
-            clock.missed += sum(1 for i in self.alive if i not in latest or latest[i][1].tick != k)
-            stale = [i for i, r in reports.items() if k - r[1].tick > self.options.stale_after]
-            for i in stale:  # a watchdog, as on a real robot: no fresh command, no motion
-                del reports[i]
-            clock.stale_holds += len(stale)
-            for i in stale_robots:
-                reports.pop(i, None)
-            pose_holds += len(stale_robots)
-            commanded = _commanded(reports, s.n, s.dim)
-            if layer == SafetyLayer.REFEREE:
-                velocities, fixed = actuate(sensings, commanded, params, s.dt, s.limits)
-                corrected += fixed
-            else:  # the robots move as their own layer (or nothing) lets them; a referee looks
-                velocities = commanded
-                if onboard is not None:
-                    held = onboard.act(k, sensings, commanded, s.limits)
-                    velocities, standing = held.velocities, standing + held.standing
-                    corrected += held.changed
-                fixed_velocities, fixed = actuate(sensings, velocities, params, s.dt, s.limits)
-                if fixed:
-                    would += fixed
-                    largest = max(largest, largest_change(fixed_velocities, velocities))
-            for i in stale_robots:  # whatever a layer made of it: a robot not seen stands
-                velocities[i - 1] = 0.0
-            row = _record(k, positions, velocities, reports, self.alive, crowd, headings)
-            self.tick_out.put(codec.encode_tick(row))
-            recorder.record(row)
-            if plant is None:
-                positions, headings = move(positions, headings, velocities, bodies, s.dt)
-            else:
-                twists = plant.send(velocities, headings)
-                if self.robots_out is not None:
-                    self.robots_out.put(codec.encode_robots(_robots_record(k, seen, twists)))
-            crowd = obstacles.advance(crowd)
+            record = step.act_recorded(k, self._reports(k, clock), self.alive)
+            self.tick_out.put(codec.encode_tick(record))
+            if self.robots_out is not None and step.sent is not None:
+                robots = _robots_record(k, step.seen, step.sent)
+                self.robots_out.put(codec.encode_robots(robots))
             if self.aborted is not None:
                 break
-        if plant is not None:
-            plant.stop()  # at once: the summary's queries take a while
-            seen = plant.observe()
-            positions, headings = seen.positions, seen.headings
-        traj = recorder.finish(positions, crowd.centres, headings)
+        return self._summarize(step, step.finish(), clock)
+
+    def _reports(self, k: int, clock: _Clock) -> dict[int, Report]:
+        """The commands that move the agents over tick k: each live agent's latest, unless it
+        is older than the watchdog allows (as on a real robot: no fresh command, no motion) or
+        the leader is gone (nobody moves any more, and this tick is the last)."""
+        latest = self.latest
+        clock.missed += sum(1 for i in self.alive if i not in latest or latest[i][1].tick != k)
+        if self.aborted is not None:
+            return {}
+        reports = {i: latest[i] for i in sorted(self.alive) if i in latest}
+        stale = [i for i, r in reports.items() if k - r[1].tick > self.options.stale_after]
+        for i in stale:
+            del reports[i]
+        clock.stale_holds += len(stale)
+        return reports
+
+    def _summarize(self, step: Step, traj: Trajectory, clock: _Clock) -> dict[str, Any]:
+        """The run's summary (published, and returned), and its closing event."""
         summary = {
-            **summarize(s, traj, clock=self.options.clock).as_dict(),
+            **summarize(self.scenario, traj, clock=self.options.clock).as_dict(),
             **clock.report(traj.ticks),  # the ticks run: fewer than planned if it ended early
             "dropped_messages": self.dropped,
-            "actuator_corrections": corrected,
-            "safety_layer": str(layer),
-            "layer_standing": standing if onboard is not None else None,
-            "referee_would_correct": None if layer == SafetyLayer.REFEREE else would,
-            "referee_largest_change": None if layer == SafetyLayer.REFEREE else largest,
+            **step.layer.report(),
             "aborted": self.aborted,
-            **({} if plant is None else {"pose_holds": pose_holds, **plant.report()}),
+            **({} if self.options.plant is None else {"pose_holds": step.pose_holds}),
+            **step.plant.report(),
             **self._agent_reports(),
         }
         if self.aborted is None:
-            self._event(s.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped")
+            self._event(
+                self.scenario.steps, 2, 0, f"run finished; {self.dropped} bad messages dropped"
+            )
         else:
             end = traj.ticks
             why = f"run ended early at tick {end}: {self.aborted}"
@@ -420,56 +389,11 @@ class World(Declarations):
         warn(f"world: {text}")
 
 
-def _commanded(
-    reports: dict[int, tuple[AgentState, Command]], n: int, dim: int
-) -> np.ndarray[Any, Any]:
-    """(n, dim) m/s: each agent's commanded velocity; an agent without a report (gone, or its
-    command too old) stands still."""
-    velocities = np.zeros((n, dim))
-    for i, (_state, command) in reports.items():
-        velocities[i - 1] = command.velocity
-    return velocities
-
-
 def _robots_record(k: int, seen: Observed, twists: np.ndarray[Any, Any]) -> RobotsRecord:
     """What the robots reported (their poses' ages) and were sent at tick ``k``."""
     ages = () if seen.ages is None else tuple(seen.ages.tolist())
     sent: list[tuple[float, ...]] = [tuple(t) for t in twists.tolist()]
     return RobotsRecord(k, tuple(sent), ages)
-
-
-def _record(
-    k: int,
-    positions: np.ndarray[Any, Any],
-    velocities: np.ndarray[Any, Any],
-    reports: dict[int, tuple[AgentState, Command]],
-    alive: set[int],
-    crowd: MoverState,
-    headings: np.ndarray[Any, Any] | None = None,
-) -> TickRecord:
-    """The ground truth of tick k, with the velocities the agents really hold during it (and
-    for unicycles their headings at its start)."""
-    n = positions.shape[0]
-    omega, bid, sigma, theta = [False] * n, [1.0] * n, [1.0] * n, [0.0] * n
-    filtered = [False] * n
-    for i, (state, command) in reports.items():
-        omega[i - 1], bid[i - 1] = state.omega, state.bid
-        sigma[i - 1], theta[i - 1] = state.sigma, state.theta
-        filtered[i - 1] = command.filtered
-    return TickRecord(
-        tick=k,
-        positions=tuple(map(tuple, positions.tolist())),
-        velocities=tuple(map(tuple, velocities.tolist())),
-        omega=tuple(omega),
-        bid=tuple(bid),
-        sigma=tuple(sigma),
-        theta=tuple(theta),
-        alive=tuple(i in alive for i in range(1, n + 1)),
-        filtered=tuple(filtered),
-        mover_centres=crowd.centres,
-        mover_velocities=crowd.velocities,
-        headings=() if headings is None else tuple(headings.tolist()),
-    )
 
 
 class _Clock:

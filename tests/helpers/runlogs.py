@@ -4,6 +4,7 @@ raw log written with the logger's own writer."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from shoal.bus import codec
@@ -78,24 +79,16 @@ def reference_log(text: str, *, gone: int | None = None) -> RunLog:
         alive = tuple(
             not (gone is not None and t.tick >= gone and i == 3) for i in range(scenario.n)
         )
-        positions = [tuple(p) for p in t.positions.tolist()]
-        velocities = [tuple(v) for v in t.velocities.tolist()]
+        positions, velocities = list(t.positions), list(t.velocities)
         if not alive[3]:
             held = held or positions[3]
             positions[3], velocities[3] = held, (0.0,) * scenario.dim
-        record = TickRecord(
-            tick=t.tick,
+        record = replace(
+            t,
             positions=tuple(positions),
             velocities=tuple(velocities),
-            omega=tuple(s.omega and alive[i] for i, s in enumerate(t.states)),
-            bid=tuple(s.bid for s in t.states),
-            sigma=tuple(s.sigma for s in t.states),
-            theta=tuple(s.theta for s in t.states),
+            omega=tuple(o and alive[i] for i, o in enumerate(t.omega)),
             alive=alive,
-            filtered=t.filtered,
-            mover_centres=t.movers.centres,
-            mover_velocities=t.movers.velocities,
-            headings=() if t.headings is None else tuple(t.headings.tolist()),
         )
         ticks.append((T0 + (t.tick + 1) * LOG_STEP, record))
     finished = Event(scenario.steps, 2, 0, "run finished; 0 bad messages dropped")

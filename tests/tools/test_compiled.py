@@ -28,6 +28,7 @@ COMPILED = [
     "shoal.agent.leader",
     "shoal.world.kinematics",
     "shoal.world.unicycle",
+    "shoal.world.step",
     "shoal.tools.simulator",
 ]
 

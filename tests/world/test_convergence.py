@@ -87,7 +87,7 @@ def first_convergence(scenario: Scenario, deadline: float) -> float | None:
     """Time (s) at which the largest per-axis formation error first drops to the tolerance,
     or None if it has not by ``deadline``."""
     for t in run(scenario):
-        error = np.abs(formation_error(t.positions, scenario.offsets)).max(initial=0.0)
+        error = np.abs(formation_error(np.asarray(t.positions), scenario.offsets)).max(initial=0.0)
         if error <= scenario.tolerance:
             return t.tick * scenario.dt
         if t.tick * scenario.dt > deadline:

@@ -80,7 +80,7 @@ def swarm(
         seed=seed,
     )  # fmt: skip
     params = dataclasses.replace(_params(), separation=2 * R + 2 * error)
-    layer = layers(params, DT, rng.randint(2, 8), link)
+    layer = layers(params, DT, rng.randint(2, 8), link, n)
     pos = _start(rng, n, 2 * R + 4 * error)
     way = np.array([[rng.gauss(0, 1), rng.gauss(0, 1)] for _ in range(n)])
     bias = way / np.linalg.norm(way, axis=1, keepdims=True) * error * rng.random()

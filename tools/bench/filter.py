@@ -1,8 +1,8 @@
 """What the safety filter costs per agent-tick (``shoal bench --filter``), warm, on the calls a
-real run makes: every call of one campaign field where the filter acts is recorded, then replayed
-through :func:`shoal.bus.safety.safe_velocity` alone. Beside it, in the same invocation, the whole
-reference simulator's CPU per agent-tick (the agent's laws, sensing, the world's second pass):
-the budget the filter takes its share of."""
+real run makes: every call of one campaign field where the filter acts is recorded, then
+replayed through the agents' own :class:`shoal.bus.safety.SafetyFilter` alone. Beside it, in
+the same invocation, the whole reference simulator's CPU per agent-tick (the agent's laws,
+sensing, the world's second pass): the budget the filter takes its share of."""
 
 from __future__ import annotations
 
@@ -24,7 +24,8 @@ from shoal.tools.campaign.fields import make_field
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario
 
-Call = tuple[Vector, Sensing, int, dict[str, Any]]
+# One call of an agent's filter: its nominal, its sensing, the filter, its previous heading.
+Call = tuple[Vector, Sensing, safety.SafetyFilter, Vector | None]
 
 
 def _source(module: ModuleType) -> ModuleType:
@@ -48,15 +49,26 @@ def _record(seed: int) -> tuple[list[Call], float, int]:
     seconds for the field (as installed: compiled or not), and its agent-ticks."""
     field = make_field(load_scenario("obstacles"), seed)
     calls: list[Call] = []
-    real = safety.safe_velocity
 
-    def recording(nominal: Vector, sensing: Sensing, agent_id: int, **kw: Any) -> Any:
-        calls.append((nominal, sensing, agent_id, kw))
-        return real(nominal, sensing, agent_id, **kw)
+    class Recording:
+        """Stands in for the controller's SafetyFilter: each agent's real filter, every call
+        recorded."""
+
+        @staticmethod
+        def of(*args: Any, **kw: Any) -> Any:
+            real = safety.SafetyFilter.of(*args, **kw)
+
+            def recorded(
+                nominal: Vector, sensing: Sensing, *, previous: Vector | None = None
+            ) -> Any:
+                calls.append((nominal, sensing, real, previous))
+                return real(nominal, sensing, previous=previous)
+
+            return recorded
 
     laws, loop = _source(controller), _source(simulator)
     with (
-        mock.patch.object(laws, "safe_velocity", recording),
+        mock.patch.object(laws, "SafetyFilter", Recording),
         mock.patch.object(loop, "Controller", laws.Controller),
     ):
         loop.simulate(field)
@@ -70,8 +82,8 @@ def _per_call_us(calls: list[Call], repeats: int) -> float:
     best = float("inf")
     for _ in range(repeats):  # the best of several passes: warm caches, least interference
         start = time.process_time()
-        for nominal, sensing, agent_id, kw in calls:
-            safety.safe_velocity(nominal, sensing, agent_id, **kw)
+        for nominal, sensing, f, previous in calls:
+            f(nominal, sensing, previous=previous)
         best = min(best, time.process_time() - start)
     return best / max(1, len(calls)) * 1e6
 
@@ -79,7 +91,9 @@ def _per_call_us(calls: list[Call], repeats: int) -> float:
 def bench_filter(seed: int = 6, repeats: int = 5) -> dict[str, Any]:
     """The figures, as one JSON-able dict (µs of CPU)."""
     calls, sim_cpu, agent_ticks = _record(seed)
-    flags = [safety.safe_velocity(c[0], c[1], c[2], **c[3]).active for c in calls]
+    flags = [
+        f(nominal, sensing, previous=previous).active for nominal, sensing, f, previous in calls
+    ]
     active = [c for c, f in zip(calls, flags, strict=True) if f]
     idle = [c for c, f in zip(calls, flags, strict=True) if not f]
     rows = [len(c[1].obstacle_ids) + len(c[1].agent_ids) for c in calls]
