@@ -16,7 +16,7 @@ one)::
 ``ca.pem`` and its own ``<name>/`` folder. Why three mechanisms: TLS encrypts and, with mutual
 authentication, admits only holders of a key the CA signed; usrpwd is a second, independent
 secret; the ACL (keyed on certificate common name AND username) limits what an admitted
-identity may do. Everything here only reads files: making them is ``tools/deploy/certs.py``.
+identity may do. Everything here only reads files: making them is ``tools/certs.py``.
 """
 
 from __future__ import annotations

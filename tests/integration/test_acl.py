@@ -1,6 +1,6 @@
 """The secured mode without a network: the router's rules for a run (bus/acl.py), the Zenoh
 settings each process gets (bus/secure.py, bus/zconfig.py), and the material on disk
-(tools/deploy/certs.py). The same refusals with real processes are in
+(tools/certs.py). The same refusals with real processes are in
 tests/integration/test_secure.py."""
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
 from shoal.bus.secure import Identity, Material
 from shoal.bus.zconfig import zenoh_config
+from shoal.tools.certs import issue, make_material
 from shoal.tools.cli import main
-from shoal.tools.deploy.certs import issue, make_material
 
 RUN, AGENTS = "r-1", 4
 ACL = access_control(RUN, AGENTS)

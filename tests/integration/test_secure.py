@@ -44,7 +44,7 @@ from shoal.bus.messages import AgentState, Command, Event, Sensing
 from shoal.bus.report import reports_in
 from shoal.bus.secure import Identity, Material
 from shoal.bus.zconfig import zenoh_config
-from shoal.tools.deploy.certs import issue, make_material
+from shoal.tools.certs import issue, make_material
 from shoal.tools.log.reader import iter_channel, read_documents, read_trajectory
 from shoal.tools.procs.launch import free_port
 from shoal.tools.procs.swarm import Child, Swarm

@@ -41,6 +41,10 @@ def _lint(site: Path) -> subprocess.CompletedProcess[str]:
         ("world/graph.py", "import shoal.tools.simulator", "never tools"),
         ("agent/formation.py", "import shoal.world.graph", "do not import each other"),
         ("tools/commands/plot.py", "import shoal.tools.commands.run", "no command imports"),
+        ("tools/commands/guard.py", "import shoal.tools.commands.robots", "no command imports"),
+        ("tools/procs/zygote.py", "import shoal.tools.commands.agent", "no import cycle"),
+        ("tools/log/replay.py", "import shoal.tools.procs.launch", "no import cycle"),
+        ("tools/foxglove/views.py", "import shoal.tools.foxglove.export", "no import cycle"),
     ],
 )
 def test_each_contract_holds_and_fails_on_a_forbidden_import(

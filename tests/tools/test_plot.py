@@ -14,6 +14,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.lines import Line2D
 
 from shoal.tools.campaign.fields import FieldOptions, make_field
+from shoal.tools.campaign.shapes import new_scenario
 from shoal.tools.cli import main
 from shoal.tools.plot.figures import (
     FIGURES,
@@ -25,7 +26,6 @@ from shoal.tools.plot.figures import (
     omega_timeline,
     trajectories,
 )
-from shoal.tools.shapes import new_scenario
 from shoal.tools.simulator import simulate
 from shoal.world.errors import BetaWarning
 from shoal.world.loader import load_scenario, parse_scenario

@@ -1,6 +1,6 @@
-"""`shoal scenarios new` (tools/shapes.py): formations of any size and shape whose graph passes
-Assumptions 1 and 2, with obstacles inside every load-time check, written as YAML the loader
-accepts and `shoal simulate` runs safely."""
+"""`shoal scenarios new` (tools/campaign/shapes.py): formations of any size and shape whose
+graph passes Assumptions 1 and 2, with obstacles inside every load-time check, written as YAML
+the loader accepts and `shoal simulate` runs safely."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from shoal.tools.campaign.shapes import SHAPES, new_scenario, offsets
 from shoal.tools.cli import main
-from shoal.tools.shapes import SHAPES, new_scenario, offsets
 from shoal.tools.simulator import simulate
 from shoal.world.assumptions import check_graph
 from shoal.world.loader import parse_scenario, scenario_from_dict

@@ -1,1 +1,2 @@
-"""``shoal campaign``: random obstacle fields, run and judged by the thousand."""
+"""``shoal campaign`` and ``shoal scenarios new``: scenarios drawn by the thousand (random
+obstacle fields, hard fields, formations of a shape), run and judged."""

@@ -6,7 +6,7 @@ settle). Issue 29 measured what other generators find: leaders trapped by their 
 crowds deadlocked, livelocks by the goal. This generator draws the cases that hurt, each field
 from scratch and every one admissible — the loader is the judge, as for the campaign's fields:
 
-- 4–10 agents in any of shoal's shapes (tools/shapes.py), 1.2–3 m apart, 2-D or 3-D, with the
+- 4–10 agents in any of shoal's shapes (shapes.py), 1.2–3 m apart, 2-D or 3-D, with the
   sparsest nearest-slots graph that passes Assumptions 1 and 2;
 - gains and dt across their range: α 0.3–3, β 1–6 (above the leader's speed: |f| < β),
   dt 0.005–0.05 s; sensing and trigger radii from the largest obstacle up;
@@ -38,7 +38,7 @@ import yaml
 
 from shoal.bus.path import path_position
 from shoal.tools.campaign.fields import FieldError, unicycle_fields, unicycle_for
-from shoal.tools.shapes import SHAPES, offsets, sparsest_graph
+from shoal.tools.campaign.shapes import SHAPES, offsets, sparsest_graph
 from shoal.world.errors import ScenarioWarning, SpeedCapWarning, WorldError
 from shoal.world.loader import parse_scenario, scenario_from_dict
 from shoal.world.scenario import Scenario

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from shoal.bus.acl import agent_name
-from shoal.tools.deploy.certs import DEFAULT_HOSTS, CertError, make_material
+from shoal.tools.certs import DEFAULT_HOSTS, CertError, make_material
 from shoal.tools.procs.children import check_run_id
 
 

@@ -16,13 +16,13 @@ from shoal.bus.errors import WireError
 from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
 from shoal.bus.types import Clock, SafetyLayer
+from shoal.tools.certs import CertError
 from shoal.tools.commands.options import (
     live_options,
     live_view,
     load_for_cli,
 )
 from shoal.tools.commands.report import json_safe, render_summary
-from shoal.tools.deploy.certs import CertError
 from shoal.tools.extras import require
 from shoal.tools.foxglove.export import export_beside, sibling
 from shoal.tools.log.salvage import is_finished

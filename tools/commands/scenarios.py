@@ -8,8 +8,8 @@ from typing import Any
 
 import click
 
+from shoal.tools.campaign.shapes import SHAPES, ShapeError, new_scenario
 from shoal.tools.commands.options import load_for_cli
-from shoal.tools.shapes import SHAPES, ShapeError, new_scenario
 from shoal.world.errors import ScenarioError
 from shoal.world.loader import builtin_names
 

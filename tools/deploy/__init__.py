@@ -1,1 +1,1 @@
-"""Deploying a run: docker compose files and the secured mode's certificates."""
+"""Deploying a run with docker compose: the compose file of a scenario."""

@@ -9,18 +9,26 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import zenoh
 from mcap.reader import make_reader
 
 from shoal.bus.links import publisher
 
-if TYPE_CHECKING:
-    from shoal.tools.procs.launch import TickSink
-
 MATCH_WAIT_S = 1.0  # how long to wait for a subscriber per key before playing anyway
 SINK_KINDS = ("tick", "event")  # the world's channels a live view is fed
+
+
+class TickSink(Protocol):
+    """Where a run's tick records and world events go as they arrive, with their arrival time
+    (ns since the epoch): from a replayed log here, from a running swarm's monitor
+    (tools/procs/launch.py); e.g. the live view (tools/foxglove/live.py). Both must return at
+    once: the monitor also watches the processes."""
+
+    def tick(self, ns: int, payload: bytes) -> None: ...
+
+    def event(self, ns: int, payload: bytes) -> None: ...
 
 
 @dataclass(frozen=True)

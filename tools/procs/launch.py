@@ -14,7 +14,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from shoal.bus import codec
 from shoal.bus.acl import MONITOR
@@ -24,7 +24,8 @@ from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.report import reports_in
 from shoal.bus.runtime import ArrivalKind, Inbox, warn
 from shoal.bus.types import Clock, SafetyLayer
-from shoal.tools.deploy.certs import make_material
+from shoal.tools.certs import make_material
+from shoal.tools.log.replay import TickSink
 from shoal.tools.procs.children import (
     AgentSpec,
     GuardSpec,
@@ -89,16 +90,6 @@ class RunPlan:
     @property
     def steps(self) -> int:
         return self.scenario.steps
-
-
-class TickSink(Protocol):
-    """Where the monitor hands the run's tick records and world events as they arrive, with
-    their arrival time (ns since the epoch), e.g. the live view (tools/foxglove/live.py). Both
-    must return at once: the monitor also watches the processes."""
-
-    def tick(self, ns: int, payload: bytes) -> None: ...
-
-    def event(self, ns: int, payload: bytes) -> None: ...
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ of the zygote):
 from __future__ import annotations
 
 import contextlib
+import importlib
 import json
 import os
 import select
@@ -38,8 +39,17 @@ from shoal.tools.procs.swarm import adopt_supervisor, die_with, name_process
 if __name__ == "__main__":
     adopt_supervisor()  # before the slow imports: the server dies with the supervisor
 
-from shoal.tools.cli import main as _cli  # before numpy: no OpenBLAS thread pool
-from shoal.tools.commands.agent import agent as _agent  # noqa: F401  (what every child will need)
+# Each child runs a ``shoal`` command line: the CLI, named as swarm.py names it for the children it
+# starts itself (``python -m shoal.tools``). procs sits under the CLI and its commands and imports
+# neither; the zygote loads them by name, once, as each child would.
+CLI = "shoal.tools.cli"
+_cli: Any = importlib.import_module(CLI).main  # before numpy: the CLI starts no OpenBLAS threads
+
+import click  # noqa: E402
+
+import shoal.tools.procs.agent  # noqa: E402, F401  (all that an agent process imports)
+
+_cli.get_command(click.Context(_cli), "agent")  # and the command that parses its options
 
 # -- the zygote process --------------------------------------------------------------------------
 

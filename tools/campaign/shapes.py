@@ -4,7 +4,7 @@ A formation of N agents — the leader (agent 1, offset 0) and N − 1 followers
 :data:`SHAPES`, ``spacing`` metres between neighbouring slots, follows a straight waypoint path
 along +x. Its graph links every agent to its nearest slots, as few as pass Assumptions 1 and 2
 (the leader reaches everyone, and no single evading follower cuts anyone off). Obstacles, if
-asked for, are drawn by the campaign's generator (tools/campaign/fields.py) so the scenario lies
+asked for, are drawn by the campaign's generator (fields.py) so the scenario lies
 inside every load-time check. The result is scenario YAML with comments, parsed by the loader
 before it is returned: what this writes, ``shoal run`` accepts.
 
@@ -183,7 +183,7 @@ def _obstacles(data: dict[str, Any], count: int, seed: int, length: float) -> li
 
 def _header(shape: str, agents: int, obstacles: int) -> str:
     lines = [
-        f"# A {shape} of {agents} agents, made by `shoal scenarios new` (tools/shapes.py).",
+        f"# A {shape} of {agents} agents, made by `shoal scenarios new`.",
         "# Agent 1 leads along the waypoints; offsets are slots relative to the leader, x along",
         "# the direction of travel. The graph links each agent to its nearest slots, as few as",
         "# pass Assumptions 1 and 2 (every agent reaches the leader; no single evading follower",
