@@ -35,7 +35,7 @@ from shoal.bus.types import AgentConfig, Waypoints, config_problem
 class Memory:
     """What an agent carries from one tick to the next.
 
-    heading : (dim,) m/s, low-pass filtered own velocity; the ray of (11) runs along it.
+    smoothed : (dim,) m/s, low-pass filtered own velocity; the ray of (11) runs along it.
     evasion : the evasive episode in force (Ω_i = 1), or None.
     bid : this agent's current value in Algorithm 1.
     sigma_consensus : the factor agreed in the last finished epoch, applied now.
@@ -46,7 +46,7 @@ class Memory:
     known : the standing obstacles a leader with a route has sensed so far (agent/leader.py).
     """
 
-    heading: Final[Vector]
+    smoothed: Final[Vector]
     evasion: Final[Evasion | None]
     bid: Final[float]
     sigma_consensus: Final[float]
@@ -58,7 +58,7 @@ class Memory:
 
     def __init__(
         self,
-        heading: Vector,
+        smoothed: Vector,
         evasion: Evasion | None,
         bid: float,
         sigma_consensus: float,
@@ -68,7 +68,7 @@ class Memory:
         planned: int = 0,
         known: Known = (),
     ) -> None:
-        self.heading = heading
+        self.smoothed = smoothed
         self.evasion = evasion
         self.bid = bid
         self.sigma_consensus = sigma_consensus
@@ -140,7 +140,7 @@ class Controller:
         if self.filtered and isinstance(path, Waypoints):
             route = tuple([tuple([float(x) for x in p]) for p in path.points[1:]])
         return Memory(
-            heading=(0.0,) * self.config.dim,
+            smoothed=(0.0,) * self.config.dim,
             evasion=None,
             bid=1.0,
             sigma_consensus=1.0,
@@ -166,7 +166,7 @@ class Controller:
             sensing.obstacle_radii,
         )
         bid, agreed = memory.bid, memory.sigma_consensus
-        heading = self._direction(memory.heading)
+        ray = self._direction(memory.smoothed)
         if epoch_start(tick, p.rounds):
             if tick > 0:
                 agreed = memory.bid
@@ -184,7 +184,7 @@ class Controller:
                 if manoeuvring
                 else passage_bid(
                     position,
-                    heading,
+                    ray,
                     centres,
                     radii,
                     formation_radius=self.config.formation_radius / demanded,
@@ -199,7 +199,7 @@ class Controller:
         if not self.config.is_leader:
             evasion = collision_course(
                 position,
-                heading,
+                ray,
                 sensing.obstacle_ids,
                 centres,
                 radii,
@@ -211,7 +211,7 @@ class Controller:
                 ratchet_cap=RATCHET_CAP if self.filtered else math.inf,
             )
         memory = Memory(
-            memory.heading,
+            memory.smoothed,
             evasion,
             bid,
             agreed,
@@ -233,11 +233,11 @@ class Controller:
         )
         return memory, state
 
-    def _direction(self, heading: Vector) -> Vector:
-        """The heading along which (11)'s ray and Algorithm 1's look-ahead run: none (zero)
+    def _direction(self, smoothed: Vector) -> Vector:
+        """The direction along which (11)'s ray and Algorithm 1's look-ahead run: none (zero)
         while it is slower than the sign term's chatter leaves in it at rest.
 
-        The heading is the agent's own velocity low-pass filtered with k = 1 − e^(−dt/τ). At
+        ``smoothed`` is the agent's own velocity low-pass filtered with k = 1 − e^(−dt/τ). At
         rest in its slot a follower's velocity is the sign term's chatter, ±β per coordinate,
         whose filtered sum keeps a standard deviation of β·√(dim·k/(2 − k)) for independent
         signs: a heading that points anywhere. Rays along it found obstacles beside the goal
@@ -249,9 +249,9 @@ class Controller:
         collision course, no passage ahead. A formation on the move is faster than its chatter
         floor once β·dt is small against its speed; with ``heading_tau`` 0 (no filtering) or
         ``safety: paper`` nothing is gated (the paper's (11), bit for bit)."""
-        if self.still_below > 0.0 and norm(heading) < self.still_below:
-            return (0.0,) * len(heading)
-        return heading
+        if self.still_below > 0.0 and norm(smoothed) < self.still_below:
+            return (0.0,) * len(smoothed)
+        return smoothed
 
     def _reaimed(self, held: Evasion, position: Vector, target: Vector) -> Evasion:
         """An episode whose follower has come to rest off its slot, re-aimed at where it wants
@@ -314,7 +314,7 @@ class Controller:
         out = tuple([float(c) for c in v])
         filtered = False
         if self.filtered:
-            previous = None if self._in_band(lag) else memory.heading
+            previous = None if self._in_band(lag) else memory.smoothed
             result = self.safety(out, sensing, previous=previous)
             if result.active:
                 out, filtered = result.velocity, True
@@ -329,7 +329,7 @@ class Controller:
             busy = memory.busy + 1
         k = self.smoothing
         memory = Memory(
-            heading=tuple([h + k * (x - h) for h, x in zip(memory.heading, out)]),
+            smoothed=tuple([h + k * (x - h) for h, x in zip(memory.smoothed, out)]),
             evasion=evasion,
             bid=consensus_round(memory.bid, bids),
             sigma_consensus=memory.sigma_consensus,
@@ -416,13 +416,13 @@ class Controller:
         held = memory.evasion
         if held is not None and target is not None:
             guard = held.radius + p.safety_margin
-            heading = self._direction(memory.heading)
+            ray = self._direction(memory.smoothed)
             away = not self._in_band(lag)
             if segment_distance(held.centre, position, target) > guard and (
-                away or ray_distance(position, heading, held.centre) > guard + p.epsilon
+                away or ray_distance(position, ray, held.centre) > guard + p.epsilon
             ):
                 held = None
-            elif away and not any(heading):
+            elif away and not any(ray):
                 held = self._reaimed(held, position, target)
         if held is not None:
             error = evasive_error(error, len(keep), held.offset)

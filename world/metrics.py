@@ -237,19 +237,9 @@ def at_speed_limit(scenario: Scenario, traj: Trajectory) -> float:
     return float(np.mean(at))
 
 
-def summarize(
-    scenario: Scenario,
-    traj: Trajectory,
-    *,
-    clock: Clock = Clock.LOCKSTEP,
-    swept: Sweep | None = None,
-) -> Summary:
-    """The figures reported after a run under ``clock`` (which sets Algorithm 1's epochs);
-    ``swept``: the run's :class:`Sweep` if the caller has it already."""
-    swept = Sweep.of(scenario, traj) if swept is None else swept
-    errors = formation_errors(scenario, traj)
-    worst = errors.max(axis=1)
-    below = np.flatnonzero(worst <= scenario.tolerance)
+def _bound_from_start(scenario: Scenario, traj: Trajectory) -> float:
+    """s: Theorem 1's (Remark 3's, directed) convergence bound from the run's first tick, its
+    offsets shaped as the agents held them then."""
     z0 = (
         traj.positions[0, 1:]
         - traj.positions[0, 0]
@@ -264,13 +254,29 @@ def summarize(
             ]
         )
     )
-    bound = convergence_bound(
+    return convergence_bound(
         scenario.adjacency,
         z0,
         directed=scenario.directed,
         beta=scenario.control.beta,
         f_max=peak_speed(scenario.path),
     )
+
+
+def summarize(
+    scenario: Scenario,
+    traj: Trajectory,
+    *,
+    clock: Clock = Clock.LOCKSTEP,
+    swept: Sweep | None = None,
+) -> Summary:
+    """The figures reported after a run under ``clock`` (which sets Algorithm 1's epochs);
+    ``swept``: the run's :class:`Sweep` if the caller has it already."""
+    swept = Sweep.of(scenario, traj) if swept is None else swept
+    errors = formation_errors(scenario, traj)
+    worst = errors.max(axis=1)
+    below = np.flatnonzero(worst <= scenario.tolerance)
+    bound = _bound_from_start(scenario, traj)
     rho = scenario.control.safety_margin
     # A unicycle's body is judged by the disc about its point's chord that holds it over the
     # tick (body_reach, world/unicycle.py): never a contact missed, possibly one that was not.

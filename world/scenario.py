@@ -247,8 +247,8 @@ class Scenario:
         single integrator."""
         if self.unicycle is None:
             return None
-        ell = self.unicycle.lookahead
-        return np.asarray([0.0 if a.single else ell for a in self.agents], dtype=np.float64)
+        lookahead = self.unicycle.lookahead
+        return np.asarray([0.0 if a.single else lookahead for a in self.agents], dtype=np.float64)
 
     @property
     def arc_departure(self) -> float:

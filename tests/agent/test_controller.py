@@ -105,7 +105,7 @@ def test_obstacle_ahead_sets_omega_and_pushes_the_agent_away() -> None:
     c = Controller(scenario.agent_config(2))
     me = (17.0, 2.0)  # heading +x; the obstacle is 3 m ahead, 0.3 m to the left of its path
     obstacle = {"ids": (0,), "centres": ((20.0, 2.3),), "radii": (1.0,)}
-    memory = Memory(heading=np.array([1.0, 0.0]), evasion=None, bid=1.0, sigma_consensus=1.0)
+    memory = Memory(smoothed=np.array([1.0, 0.0]), evasion=None, bid=1.0, sigma_consensus=1.0)
     memory, announced = c.announce(memory, sensing(me, **obstacle))
     assert announced.omega
     assert memory.evasion is not None
@@ -127,7 +127,7 @@ def test_an_episode_ends_when_the_way_to_the_slot_is_clear_though_the_heading_is
     obstacle = {"ids": (0,), "centres": ((20.0, 2.3),), "radii": (1.0,)}
     leader, three = (19.0, 0.0), (17.0, -2.0)  # agent 2's slot: (17, 2)
     heard = {1: state(1, leader), 3: state(3, three)}
-    start = Memory(heading=np.array([1.0, 0.0]), evasion=None, bid=1.0, sigma_consensus=1.0)
+    start = Memory(smoothed=np.array([1.0, 0.0]), evasion=None, bid=1.0, sigma_consensus=1.0)
     away = (17.0, 1.6)  # 0.4 m below its slot; the way up is clear, the heading +x is not
     memory, announced = c.announce(start, sensing(away, **obstacle))
     assert announced.omega and memory.evasion is not None
@@ -160,7 +160,7 @@ def test_a_follower_bids_for_a_gap_only_in_its_slot_and_calm() -> None:
     c = Controller(scenario.agent_config(2))
     slot = (17.0, 2.0)  # in line with the gap, heading +x through it
     heard = {1: state(1, (19.0, 0.0)), 3: state(3, (17.0, -2.0))}
-    calm = dataclasses.replace(c.start(), heading=np.array([1.0, 0.0]))
+    calm = dataclasses.replace(c.start(), smoothed=np.array([1.0, 0.0]))
     assert calm.calm == c.calm_ticks == 150  # 3 × 0.5 s at dt = 0.01 s
 
     def bid(memory: Memory) -> float:
@@ -264,7 +264,7 @@ def test_a_heading_slower_than_the_chatter_floor_has_no_ray_with_the_filter(safe
     assert c.still_below == (pytest.approx(floor) if safety == "filter" else 0.0)
     obstacle = {"ids": (0,), "centres": ((20.0, 2.3),), "radii": (1.0,)}
     for speed, fires in ((0.99 * floor, safety == "paper"), (1.01 * floor, True)):
-        memory = Memory(heading=(speed, 0.0), evasion=None, bid=1.0, sigma_consensus=1.0)
+        memory = Memory(smoothed=(speed, 0.0), evasion=None, bid=1.0, sigma_consensus=1.0)
         _, announced = c.announce(memory, sensing((17.0, 2.0), **obstacle))
         assert announced.omega is fires, speed
 
