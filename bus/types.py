@@ -113,8 +113,9 @@ class Waypoints:
 
     A point counts as visited once the leader is within ``reach`` m of it. Simulated, the
     leader's last step lands on the point, so 1 nm does; a real robot, seen through late poses
-    and moved by commands held for a tick, overshoots and is sent back without end (issue 33),
-    so the world serves a tick's travel when it drives robots (world/process.py)."""
+    and moved by commands held for a tick, overshoots and is sent back without end (measured
+    with ROS 2 robots, docs/ros2.md), so the world serves a tick's travel when it drives robots
+    (world/process.py)."""
 
     points: tuple[Vector, ...]
     speed: float

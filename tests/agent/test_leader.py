@@ -160,7 +160,7 @@ def test_a_clear_detour_ahead_is_kept_and_reached_vertices_are_counted_off() -> 
 
 
 def test_a_leader_whose_detour_a_later_obstacle_blocks_still_reaches_its_goal() -> None:
-    """Issue 29's reproduction: the second obstacle is beyond the sensing radius when the
+    """The second obstacle is beyond the sensing radius when the
     leader plans round the first; before re-planning it circled the first for 38 s and ended
     21.6 m short."""
     from shoal.tools.simulator import simulate
@@ -228,7 +228,7 @@ def _late_leader(reach: float, lag: int, ticks: int = 3000) -> tuple[int, float,
 
 @pytest.mark.parametrize("lag", [2, 3, 5])
 def test_a_leader_seen_late_visits_its_route_within_the_reach_the_world_serves(lag: int) -> None:
-    """Issue 33: through late poses a leader that must land within 1 nm overshoots, is sent
+    """Through late poses (ROS 2 robots) a leader that must land within 1 nm overshoots, is sent
     back, overshoots again, and never ends its route; with the reach the world serves robots
     (a tick's travel at the path's speed, world/process.py) it ends it and stands still,
     within that reach and the lag's travel of its goal."""

@@ -1,4 +1,4 @@
-"""Faults survived (issue 6, items 1 and 2), with real processes over a real Zenoh router.
+"""Faults survived (processes killed, messages lost), with real processes over a real Zenoh router.
 
 A follower SIGKILLed in realtime (lockstep: tests/integration/test_run_swarm.py), a follower
 restarted after it died (taken back in realtime, refused in lockstep), the leader killed (every

@@ -1,4 +1,4 @@
-"""Bad input, fuzzed (issue 6, item 3): every message decoder, the scenario loader, and every
+"""Bad input, fuzzed: every message decoder, the scenario loader, and every
 process of a run over a real router. docs/fuzzing.md has the targets, cases and findings.
 
 Properties:

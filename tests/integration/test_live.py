@@ -567,7 +567,7 @@ def test_the_servers_client_log_is_quiet_unless_verbose(
     verbose: bool, capfd: pytest.CaptureFixture[str]
 ) -> None:
     """A browser opened on the ws:// URL fails the handshake, and the SDK logged that into the
-    run's own output (issue 34). It logs through Python's logger `foxglove.websocket.server`
+    run's own output. It logs through Python's logger `foxglove.websocket.server`
     (pyo3-log, which asks the logger whether the level is enabled first): quiet by default,
     `shoal -v` shows it, named."""
     import logging
@@ -604,7 +604,7 @@ def _request(port: int, head: bytes) -> bytes:
 
 
 def test_a_browser_on_the_port_is_told_what_it_is_and_foxglove_still_connects() -> None:
-    """Issue 34: a browser opened on the live view's URL got an empty reply. It gets one line
+    """A browser opened on the live view's URL used to get an empty reply. It gets one line
     of what the port is and how to open it; a WebSocket upgrade (Foxglove's subprotocol)
     reaches the SDK's server through the same port and is accepted."""
     run = reference_log(TINY)

@@ -112,7 +112,7 @@ def test_sigkill_of_a_follower_mid_run_is_survived_and_logged(router: str, tmp_p
 @pytest.mark.parametrize("hogs", [0, 3], ids=["quiet", "beside-3-cpu-hogs"])
 def test_two_runs_on_one_router_stay_isolated(router: str, tmp_path: Path, hogs: int) -> None:
     """Two lockstep runs share a router and stay exact; and with three processes spinning on
-    the machine's two cores beside them (issue 16: under load a run lost live agents), they
+    the machine's two cores beside them (under load a run once lost live agents), they
     are slower, never different: every agent stays, every tick equals the reference."""
     scenario = shortened(tmp_path, "sinusoid", duration=4.0)
     outs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
@@ -146,7 +146,7 @@ def _listening(tree: dict[int, tuple[str, str]]) -> str | None:
 
 
 def test_sigkill_of_shoal_run_beside_cpu_hogs_takes_its_own_router_too(tmp_path: Path) -> None:
-    """Issue 16: a SIGKILLed `shoal run` left its router running on a loaded machine (> 60 s).
+    """A SIGKILLed `shoal run` once left its router running on a loaded machine (> 60 s).
     Its router, like every child, gets SIGTERM when the supervisor dies and ends within its
     grace; here with three processes spinning on two cores from before the kill on."""
     run, tmp = unique("ownrouter"), tmp_path / "tmp"
@@ -264,7 +264,7 @@ def test_sigkill_of_shoal_run_leaves_no_orphans(router: str, tmp_path: Path) -> 
     """Children die with their supervisor (PR_SET_PDEATHSIG), even when it cannot clean up;
     agents forked by the fork server die with it, and it with ``shoal run``; the run's folder
     (children's logs; the keys in secured mode) goes too, removed by the reaper once they are
-    gone (tools/procs/reaper.py; issue 16: it was left behind)."""
+    gone (tools/procs/reaper.py; it used to be left behind)."""
     run = unique("orphans")
     tmp = tmp_path / "tmp"
     tmp.mkdir()

@@ -61,10 +61,10 @@ def test_a_realtime_swarm_keeps_every_guard_and_separation(tmp_path: Path) -> No
 
 
 def test_messages_later_than_the_watchdog_allows_only_hold_robots_still(tmp_path: Path) -> None:
-    """Issue 32, the delay bound exceeded on purpose: every agent's states and commands
-    50 ± 30 ms late against a watchdog that applies nothing older than 5 ticks (50 ms at
-    dt 0.01 s, speed 1), the robots' own radio as late, 5 % lost, each robot's estimate off by
-    up to 0.05 m, no referee. Many commands arrive too late to be applied, so robots are held
+    """Each robot's own layer, the delay bound exceeded on purpose: every agent's states and
+    commands 50 ± 30 ms late against a watchdog that applies nothing older than 5 ticks (50 ms
+    at dt 0.01 s, speed 1), the robots' own radio as late, 5 % lost, each robot's estimate off
+    by up to 0.05 m, no referee. Many commands arrive too late to be applied, so robots are held
     (``stale_holds``) and stand for snapshots (``layer_standing``), but the guard and the
     separation still hold exactly: the theorem (docs/safety.md, Without a referee) assumes no
     delay bound, the bound only decides how long robots wait."""

@@ -171,7 +171,7 @@ def test_simulate_out_names_the_file_it_writes_and_never_overwrites_unasked(
 
 def test_summary_rows_that_could_look_like_faults_say_what_they_mean() -> None:
     """A bound of 0 s (agents start on their slots) and Assumption 2 counted in the run read
-    as errors on a good run (issue 34)."""
+    as errors on a good run."""
     base = json.loads(CliRunner().invoke(main, ["simulate", "passage", "--json"]).stdout)
     rows = dict(
         line.split(None, 1) if not line.startswith("Assumption") else line.split("  ", 1)

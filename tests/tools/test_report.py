@@ -46,7 +46,7 @@ def test_an_agents_figures_are_its_own_counters() -> None:
 def test_the_world_is_handed_the_text_the_supervisor_parsed_under_the_same_name(
     tmp_path: Path,
 ) -> None:
-    """Issue 13: the scenario was parsed by `shoal run` and again, from its file, by the world
+    """The scenario was once parsed by `shoal run` and again, from its file, by the world
     (the file may change in between). The world now gets a copy of the parsed text and the
     name it was parsed under (`--name`) — even a name that is no file name."""
     for stem, text in (
@@ -67,7 +67,7 @@ def test_the_world_is_handed_the_text_the_supervisor_parsed_under_the_same_name(
 
 
 def test_an_agent_reports_its_proportional_set_size_below_its_resident_size() -> None:
-    """Issue 15: memory per agent as PSS (shared pages counted once) beside RSS. This process
+    """Memory per agent as PSS (shared pages counted once) beside RSS. This process
     shares its interpreter and libraries with nobody it forked, so PSS ≤ RSS, and both > 0."""
     import resource
     import sys

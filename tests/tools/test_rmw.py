@@ -407,7 +407,7 @@ def test_a_formation_of_robots_shoal_did_not_write_reaches_its_goal(
     formation arrives with 0 collisions, every guard and separation kept; every robot's last
     command is a zero Twist; nothing the world heard was dropped. The route turns a corner
     at its goal (2 m more, square to it): a leader that must land within 1 nm, seen through
-    late poses, stalled at such a corner for good (issue 33)."""
+    late poses, stalled at such a corner for good."""
     import yaml
 
     from shoal.tools.campaign.fields import FieldOptions, make_field

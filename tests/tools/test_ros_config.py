@@ -1,4 +1,4 @@
-"""Where a run's ROS 2 robots are (tools/ros2/config.py, issue 33): the command line's options,
+"""Where a run's ROS 2 robots are (tools/ros2/config.py): the command line's options,
 else the scenario's ``robots:`` section, else the defaults; the world, its guard and ``shoal
 robots`` resolve them the same way (the end to end: tests/tools/test_fleet.py)."""
 

@@ -49,7 +49,7 @@ def test_a_standing_obstacle_after_a_moving_one_is_named_by_its_own_index() -> N
 
 
 def grid(scale: float, **extra: Any) -> dict[str, Any]:
-    """Issue 29's 16 agents on a grid 0.5 m apart, the leader at a corner, shrunk by ``scale``
+    """16 agents on a grid 0.5 m apart, the leader at a corner, shrunk by ``scale``
     at 2 s: 0.5 / 2 = 0.25 m < 0.4 m stood gridlocked for 45 s before it was refused."""
     cells = [(r, c) for r in range(4) for c in range(4)]
     ids = {cell: k + 1 for k, cell in enumerate(cells)}

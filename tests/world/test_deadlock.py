@@ -1,4 +1,4 @@
-"""Deadlocks in crowds (bus/safety.py ``slide_right``, issue 29): a jammed agent follows the
+"""Deadlocks in crowds (bus/safety.py ``slide_right``): a jammed agent follows the
 right-hand face of its cell, so a symmetric crowd unwinds like a roundabout; the answer is still
 a projection onto the filter's rows, so nothing about safety changes."""
 
@@ -20,7 +20,7 @@ DT, R = 0.01, 0.2  # s; half the separation, m
 
 
 def _jammed() -> Sensing:
-    """The jam of issue 29's ring, as one follower met it: the leader straight ahead (its slot
+    """The jam of the ring of eight, as one follower met it: the leader straight ahead (its slot
     lies beyond) and a neighbour on either side, each at exactly the separation 2R."""
     others = ((-2 * R, 0.0), (0.0, 2 * R), (0.0, -2 * R))
     return Sensing(0, (0.0, 0.0), (), (), (), (1, 3, 4), others)
@@ -72,7 +72,7 @@ def _ring(n: int, radius: float, dim: int, tilt: float = 0.0) -> dict[str, objec
 def test_a_ring_sent_through_its_centre_swaps_and_settles(
     n: int, radius: float, dim: int, tilt: float
 ) -> None:
-    """Issue 29's ring of eight (and a bigger one, and in 3-D, flat and tilted): before the
+    """A ring of eight (and a bigger one, and in 3-D, flat and tilted): before the
     rule every follower stopped 0.4–0.57 m from the leader for the rest of the run."""
     scn = scenario_from_dict(_ring(n, radius, dim, tilt))
     traj = simulate(scn)

@@ -74,7 +74,7 @@ def pressed(overlap: np.ndarray) -> Trajectory:
 
 
 def test_agent_radius_equal_to_rho_pressed_within_the_slack_does_not_collide() -> None:
-    """Issue 29: pressed against a row, the solver's 1e-12 m acceptance adds up tick after tick,
+    """Pressed against a row, the solver's 1e-12 m acceptance adds up tick after tick,
     and the tick metric counted overlaps of 1e-16 to 5e-12 m as collisions. They are within
     the slack the theorem allows, so 0 collisions and a guard margin in [−slack, 0]."""
     s = parse_scenario(PRESSED)

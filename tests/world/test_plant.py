@@ -1,4 +1,4 @@
-"""world/plant.py in the world's loop (issue 33): with robots in place of its kinematics, the world
+"""world/plant.py in the world's loop: with robots in place of its kinematics, the world
 senses and records where the robots say they are, hands them the tick's velocities, holds a
 robot whose pose is stale, and stops every robot however the run ends. The robots here are a
 test double on an in-memory bus (the ROS 2 ones: tests/tools/test_bridge.py)."""

@@ -424,7 +424,7 @@ def test_the_robotarium_run_keeps_its_bodies_apart_and_off_the_obstacles() -> No
 def test_unicycles_that_start_facing_away_turn_round_beside_obstacles_and_arrive(
     headings: list[float], backwards: int
 ) -> None:
-    """Issue 31, item 5: robots that start facing away from where they must go (every one
+    """Robots that start facing away from where they must go (every one
     reversed; side-on; a mix), agents 2 and 3 beside an obstacle, neighbours 0.4 m apart. The
     point moves as the law asks from the first tick, whatever the heading: a follower facing
     back turns round (more than a quarter turn) on the spot or in a multi-point turn; a leader

@@ -1,4 +1,4 @@
-"""Formation error against the fraction of neighbour messages lost (issue 6, item 2).
+"""Formation error against the fraction of neighbour messages lost.
 
 Each rate gets one realtime run of the whole swarm (``shoal run --clock realtime --drop-rate P``, a
 router of its own), and the error is read back from the run's log, so the figures are the world's

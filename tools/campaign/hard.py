@@ -2,7 +2,7 @@
 
 The campaign's own fields (fields.py) keep a base scenario's formation, gains and straight path
 and scatter obstacles near the desired tracks; the rules of shoal fit them well (199 of 200
-settle). Issue 29 measured what other generators find: leaders trapped by their own detour,
+settle). Other generators, measured, find more: leaders trapped by their own detour,
 crowds deadlocked, livelocks by the goal. This generator draws the cases that hurt, each field
 from scratch and every one admissible — the loader is the judge, as for the campaign's fields:
 

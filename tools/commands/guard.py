@@ -1,4 +1,4 @@
-"""``shoal guard``: the robots' last line when the world itself dies (issue 33, docs/ros2.md).
+"""``shoal guard``: the robots' last line when the world itself dies (docs/ros2.md).
 
 The world stops every robot however its run ends, but a SIGKILLed or crashed world sends
 nothing. This small process, started beside it by ``shoal run --robots ros2``, watches the

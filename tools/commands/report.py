@@ -35,7 +35,7 @@ def render_summary(summary: dict[str, Any]) -> str:
         ("agreed σ", _sigma(summary)),
         ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
-    if summary.get("separation_margin") is not None:  # a summary from before issue 29 has none
+    if summary.get("separation_margin") is not None:  # an older shoal's summary has none
         rows.insert(4, ("margins", _margins(summary)))
     if summary.get("arrived") is not None:
         rows.insert(rows.index(next(r for r in rows if r[0] == "convergence")) + 1,

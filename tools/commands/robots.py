@@ -1,4 +1,4 @@
-"""``shoal robots``: simulated ROS 2 robots on rmw_zenoh's protocol (issue 33, docs/ros2.md)."""
+"""``shoal robots``: simulated ROS 2 robots on rmw_zenoh's protocol (docs/ros2.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The live view's port, as a person meets it (issue 34): a browser pointed at it gets one line
+"""The live view's port, as a person meets it: a browser pointed at it gets one line
 saying what the port is and how to open it, where the Foxglove SDK's server answers a plain
 HTTP request with an empty reply; a WebSocket upgrade goes through to that server.
 

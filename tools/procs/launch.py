@@ -177,7 +177,7 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
 def _probe(endpoint: str, plan: RunPlan) -> None:
     """Raise SessionError, naming ``endpoint``, if no router answers there soon: the
     processes themselves keep trying for 30 s, which made an unreachable router look like
-    "logger not ready" after half a minute (issue 16, item 7)."""
+    "logger not ready" after half a minute."""
     conf = client_config(
         (endpoint,), secure=plan.secure_dir, name=MONITOR, connect_ms=PROMPT_CONNECT_MS
     )

@@ -1,4 +1,4 @@
-"""ROS 2 robots as the world's plant (world/plant.py; ``shoal run --robots ros2``, issue 33):
+"""ROS 2 robots as the world's plant (world/plant.py; ``shoal run --robots ros2``):
 agent i's robot, namespace ``/<prefix><i>``, reports its pose on ``/<ns>/odom``
 (``nav_msgs/msg/Odometry``) or a motion-capture ``geometry_msgs/msg/PoseStamped``, and takes
 ``geometry_msgs/msg/Twist`` on ``/<ns>/cmd_vel``, over rmw_zenoh (tools/ros2/node.py).

@@ -1,4 +1,4 @@
-"""Where a run's ROS 2 robots are (issue 33, docs/ros2.md): the command line's ``--ros-*``
+"""Where a run's ROS 2 robots are (docs/ros2.md): the command line's ``--ros-*``
 options, else the scenario's ``robots:`` section, else the defaults, resolved once, so that the
 world and its guard drive and stop the same robots."""
 

@@ -1,4 +1,4 @@
-"""Simulated ROS 2 robots (``shoal robots``, issue 33): each takes ``geometry_msgs/msg/Twist`` on
+"""Simulated ROS 2 robots (``shoal robots``): each takes ``geometry_msgs/msg/Twist`` on
 ``/<ns>/cmd_vel`` and publishes ``nav_msgs/msg/Odometry`` on ``/<ns>/odom``, over rmw_zenoh's
 protocol (tools/ros2/node.py), as a TurtleBot's driver does: for users without robots, and for
 the tests of the world as a bridge.

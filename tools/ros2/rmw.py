@@ -1,6 +1,6 @@
 """rmw_zenoh's wire, as pure functions: what a ROS 2 node on Zenoh (ROS 2 Jazzy and later, with
 ``RMW_IMPLEMENTATION=rmw_zenoh_cpp``) expects of a publisher or a subscriber it has never heard
-of, so that shoal can talk to ROS 2 robots with no ROS install (issue 33; docs/ros2.md).
+of, so that shoal can talk to ROS 2 robots with no ROS install (docs/ros2.md).
 
 What is checked, and where (rmw_zenoh's docs/design.md and ``liveliness_utils.cpp``, ``qos.cpp``,
 ``attachment_helpers.cpp``; ../shared/notes/ecosystem.md, "ROS 2 over rmw_zenoh"):
