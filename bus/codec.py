@@ -8,17 +8,17 @@ receiver counts and drops such messages and never crashes on them.
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
 import reprlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
-from operator import itemgetter
+from functools import partial
+from operator import attrgetter, itemgetter
 from typing import Any, TypeVar
 
 import msgpack
 
 from shoal.bus.errors import DecodeError
+from shoal.bus.fields import table
 from shoal.bus.messages import AgentState, Command, Event, Mover, RobotsRecord, Sensing, TickRecord
 from shoal.bus.types import (
     REACHED,
@@ -37,6 +37,7 @@ from shoal.bus.types import (
 
 SCHEMA = 2  # 2: sensing carries nearby agents; commands and ticks the filter flag; safety params
 T = TypeVar("T")
+M = TypeVar("M")
 
 # Error messages show a wire value through this: bounded in length and depth, so that a value
 # nested 1,000 deep (msgpack allows 1,024) cannot raise RecursionError instead of DecodeError.
@@ -49,10 +50,13 @@ def _wire_form(value: Any) -> Any:
     speed cap]; a numpy array as its list (tuples and lists both pack as arrays, and numpy's
     float64 as a float64, so a message's bytes do not depend on which it holds)."""
     if isinstance(value, Mover):
-        return [value.obstacle_id, value.centre, value.radius, value.velocity, value.speed_cap]
+        return _MOVER(value)
     if hasattr(value, "tolist"):
         return value.tolist()
     raise TypeError(f"cannot put a {type(value).__name__} on the wire")
+
+
+_MOVER = attrgetter(*(f.name for f in fields(Mover)))  # its fields in their declared order
 
 
 def _pack(kind: str, body: dict[str, Any]) -> bytes:
@@ -168,227 +172,6 @@ def _map(value: Any, where: str) -> Mapping[str, Any]:
     if not isinstance(value, dict):
         raise DecodeError(f"{where}: expected a map, got {type(value).__name__}")
     return value
-
-
-# -- each message once --------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, slots=True)
-class WireField:
-    """One field of a message: its ``key`` in the msgpack map, the message attribute ``name``
-    it carries, and ``check``, which decodes a wire value (raising :class:`DecodeError` that
-    names where) into what the message holds. ``sparse``: written only when not empty, so that
-    a run without the feature keeps its bytes (moving obstacles)."""
-
-    key: str
-    name: str
-    check: Callable[[Any, str], Any]
-    sparse: bool = False
-
-
-def encoder(*tables: tuple[WireField, ...]) -> Callable[..., dict[str, Any]]:
-    """The function that maps messages to their wire map, one message per table (a ``cmd``
-    is a state and a command): a dict display of the fields always written, made from the
-    tables' own keys and names, as fast as one written by hand; then the sparse fields that
-    are not empty."""
-    args = [f"m{i}" for i in range(len(tables))]
-    items = [
-        f"{f.key!r}: {arg}.{f.name}"
-        for arg, table in zip(args, tables, strict=True)
-        for f in table
-        if not f.sparse
-    ]
-    if not all(f.name.isidentifier() for table in tables for f in table):
-        raise ValueError("a message field's name must be an identifier")
-    source = f"lambda {', '.join(args)}: {{{', '.join(items)}}}"  # keys as literals, names checked
-    build: Callable[..., dict[str, Any]] = eval(source)
-    sparse = [(f.key, f.name) for table in tables for f in table if f.sparse]
-    if not sparse:
-        return build
-    if len(tables) != 1:
-        raise ValueError("sparse fields are for one-message tables")
-
-    def encode(message: Any) -> dict[str, Any]:
-        body = build(message)
-        for key, name in sparse:
-            value = getattr(message, name)
-            if value:
-                body[key] = value
-        return body
-
-    return encode
-
-
-def _decode_fields(table: tuple[WireField, ...], m: Mapping[str, Any]) -> dict[str, Any]:
-    """The message's attributes from map ``m``, field by field, each checked (a sparse field
-    that is absent is left to the message's default)."""
-    return {f.name: _get(m, f.key, f.check) for f in table if not (f.sparse and f.key not in m)}
-
-
-# -- world → agent ------------------------------------------------------------------------------
-
-
-def _movers(value: Any, where: str) -> tuple[Mover, ...]:
-    """``mv``: [[obstacle id, centre, radius, velocity, speed cap], ...]."""
-    out = []
-    for k, item in enumerate(_list(value, where)):
-        at = f"{where}[{k}]"
-        entry = _list(item, at)
-        if len(entry) != 5:
-            raise DecodeError(f"{at}: expected [id, centre, radius, velocity, speed cap]")
-        mover = Mover(
-            obstacle_id=_int(entry[0], f"{at}.id"),
-            centre=_vector(entry[1], f"{at}.centre"),
-            radius=_float(entry[2], f"{at}.radius"),
-            velocity=_vector(entry[3], f"{at}.velocity"),
-            speed_cap=_float(entry[4], f"{at}.speed_cap"),
-        )
-        if len(mover.velocity) != len(mover.centre):
-            raise DecodeError(f"{at}: velocity and centre differ in coordinates")
-        if not (mover.radius > 0 and mover.speed_cap >= 0):
-            raise DecodeError(f"{at}: radius must be > 0 and speed cap ≥ 0")
-        out.append(mover)
-    return tuple(out)
-
-
-SENSING = (
-    WireField("tick", "tick", _int),
-    WireField("pos", "position", _vector),
-    WireField("oid", "obstacle_ids", _ints),
-    WireField("oc", "obstacle_centres", _vectors),
-    WireField("or", "obstacle_radii", _floats),
-    WireField("aid", "agent_ids", _ints),
-    WireField("ap", "agent_positions", _vectors),
-    WireField("mv", "movers", _movers, sparse=True),
-    WireField("hd", "heading", _float, sparse=True),  # a unicycle's, when not 0
-)
-_encode_sensing = encoder(SENSING)
-_SENSING_FIELDS = itemgetter(*(f.key for f in SENSING if not f.sparse))
-
-
-def encode_sensing(s: Sensing) -> bytes:
-    return _pack("sensing", _encode_sensing(s))
-
-
-def decode_sensing(data: bytes) -> Sensing:
-    m = _unpack("sensing", data)
-    fast = _sensing_fast(m)
-    if fast is not None:
-        if "mv" not in m and "hd" not in m:
-            return fast
-        s = fast
-        if "mv" in m:
-            s = dataclasses.replace(s, movers=_movers(m["mv"], "sensing.mv"))
-            _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
-        if "hd" in m:
-            s = dataclasses.replace(s, heading=_float(m["hd"], "sensing.hd"))
-        return s
-    s = Sensing(**_decode_fields(SENSING, m))
-    if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
-        raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
-    if len(s.agent_ids) != len(s.agent_positions):
-        raise DecodeError("sensing: agent ids and positions differ in length")
-    _same_dim(len(s.position), s.obstacle_centres, "sensing.oc")
-    _same_dim(len(s.position), s.agent_positions, "sensing.ap")
-    _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
-    return s
-
-
-def _sensing_fast(m: Mapping[str, Any]) -> Sensing | None:
-    """The common case in one pass: every field present with its exact wire type (as the
-    encoder writes it); anything else (None) goes through the field-by-field checks."""
-    try:
-        t, pos, oid, oc, radii, aid, ap = _SENSING_FIELDS(m)
-    except KeyError:
-        return None
-    if not (
-        type(t) is int
-        and _plain_vector(pos)
-        and type(oid) is list
-        and type(oc) is list
-        and type(radii) is list
-        and len(oid) == len(oc) == len(radii)
-        and _finite(*radii)
-        and type(aid) is list
-        and type(ap) is list
-        and len(aid) == len(ap)
-    ):
-        return None
-    for i in (*oid, *aid):
-        if type(i) is not int:
-            return None
-    for c in (*oc, *ap):
-        if not _plain_vector(c) or len(c) != len(pos):
-            return None
-    return Sensing(
-        t, tuple(pos), tuple(oid), tuple(map(tuple, oc)), tuple(radii), tuple(aid),
-        tuple(map(tuple, ap)),
-    )  # fmt: skip
-
-
-# -- agent → neighbours -------------------------------------------------------------------------
-
-
-STATE = (
-    WireField("id", "agent_id", _int),
-    WireField("tick", "tick", _int),
-    WireField("pos", "position", _vector),
-    WireField("omega", "omega", _bool),
-    WireField("bid", "bid", _float),
-    WireField("sigma", "sigma", _float),
-    WireField("theta", "theta", _float),
-)
-_STATE_FIELDS = itemgetter(*(f.key for f in STATE))
-_encode_state = encoder(STATE)
-
-
-def _state_from(m: Mapping[str, Any]) -> AgentState:
-    with contextlib.suppress(KeyError):  # a missing field: the checks below say which
-        i, t, pos, omega, bid, sigma, theta = _STATE_FIELDS(m)
-        if (
-            type(i) is int
-            and type(t) is int
-            and type(omega) is bool
-            and _plain_vector(pos)
-            and _finite(bid, sigma, theta)
-        ):
-            return AgentState(i, t, tuple(pos), omega, bid, sigma, theta)  # the common case
-    return AgentState(**_decode_fields(STATE, m))
-
-
-def encode_state(s: AgentState) -> bytes:
-    return _pack("state", _encode_state(s))
-
-
-def decode_state(data: bytes) -> AgentState:
-    return _state_from(_unpack("state", data))
-
-
-# -- agent → world ------------------------------------------------------------------------------
-
-
-# A command travels with the state it was computed from: its id and tick are the state's.
-COMMAND = (WireField("vel", "velocity", _vector), WireField("flt", "filtered", _bool))
-_encode_report = encoder(STATE, COMMAND)
-
-
-def encode_report(state: AgentState, command: Command) -> bytes:
-    """The command of a tick, carrying what the agent announced that tick (for the record)."""
-    return _pack("cmd", _encode_report(state, command))
-
-
-def decode_report(data: bytes) -> tuple[AgentState, Command]:
-    m = _unpack("cmd", data)
-    state = _state_from(m)
-    vel: Any = m.get("vel")
-    flt: Any = m.get("flt")
-    if _plain_vector(vel) and type(flt) is bool:  # the common case
-        velocity, filtered = tuple(vel), flt
-    else:
-        checked = _decode_fields(COMMAND, m)
-        velocity, filtered = checked["velocity"], checked["filtered"]
-    _same_dim(len(state.position), (velocity,), "cmd.vel")
-    return state, Command(state.agent_id, state.tick, velocity, filtered)
 
 
 # -- configuration ------------------------------------------------------------------------------
@@ -537,32 +320,173 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
     return config, Clock(clock)
 
 
-# -- world → all --------------------------------------------------------------------------------
+# -- the messages: each declared once, in bus/messages.py, with its wire form ---------------------
 
 
-TICK = (
-    WireField("tick", "tick", _int),
-    WireField("pos", "positions", _vectors),
-    WireField("vel", "velocities", _vectors),
-    WireField("omega", "omega", _bools),
-    WireField("bid", "bid", _floats),
-    WireField("sigma", "sigma", _floats),
-    WireField("theta", "theta", _floats),
-    WireField("alive", "alive", _bools),
-    WireField("flt", "filtered", _bools),
-    WireField("mc", "mover_centres", _vectors, sparse=True),  # only in runs with moving obstacles
-    WireField("mw", "mover_velocities", _vectors, sparse=True),
-    WireField("hd", "headings", _floats, sparse=True),  # only in runs of unicycles
-)
-_encode_tick = encoder(TICK)
+def _movers(value: Any, where: str) -> tuple[Mover, ...]:
+    """``mv``: [[obstacle id, centre, radius, velocity, speed cap], ...]."""
+    out = []
+    for k, item in enumerate(_list(value, where)):
+        at = f"{where}[{k}]"
+        entry = _list(item, at)
+        if len(entry) != 5:
+            raise DecodeError(f"{at}: expected [id, centre, radius, velocity, speed cap]")
+        mover = Mover(
+            obstacle_id=_int(entry[0], f"{at}.id"),
+            centre=_vector(entry[1], f"{at}.centre"),
+            radius=_float(entry[2], f"{at}.radius"),
+            velocity=_vector(entry[3], f"{at}.velocity"),
+            speed_cap=_float(entry[4], f"{at}.speed_cap"),
+        )
+        if len(mover.velocity) != len(mover.centre):
+            raise DecodeError(f"{at}: velocity and centre differ in coordinates")
+        if not (mover.radius > 0 and mover.speed_cap >= 0):
+            raise DecodeError(f"{at}: radius must be > 0 and speed cap ≥ 0")
+        out.append(mover)
+    return tuple(out)
 
 
-def encode_tick(t: TickRecord) -> bytes:
-    return _pack("tick", _encode_tick(t))
+def _plain_vectors(value: Any) -> bool:
+    if type(value) is not list:
+        return False
+    for v in value:  # noqa: SIM110 (a loop: all() over a generator is slower here)
+        if not _plain_vector(v):
+            return False
+    return True
 
 
-def decode_tick(data: bytes) -> TickRecord:
-    t = TickRecord(**_decode_fields(TICK, _unpack("tick", data)))
+def _plain(value: Any, kind: type) -> bool:
+    """A list whose items are exactly of type ``kind`` (not bool for int)."""
+    if type(value) is not list:
+        return False
+    for x in value:  # noqa: SIM110
+        if type(x) is not kind:
+            return False
+    return True
+
+
+# Per wire form (bus/fields.py FORMS): the check that decodes a value field by field, naming
+# where it fails; and, for the fast path, a test that the value has exactly the type the
+# encoder writes, with the expression that turns it into what the message holds.
+CHECKS: dict[str, Callable[[Any, str], Any]] = {
+    "int": _int, "float": _float, "bool": _bool, "str": _str, "vector": _vector,
+    "vectors": _vectors, "ints": _ints, "floats": _floats, "bools": _bools, "movers": _movers,
+}  # fmt: skip
+_FAST = {
+    "int": ("type({v}) is int", "{v}"),
+    "float": ("type({v}) is float and {v} - {v} == 0.0", "{v}"),  # false for inf and nan
+    "bool": ("type({v}) is bool", "{v}"),
+    "str": ("type({v}) is str", "{v}"),
+    "vector": ("_plain_vector({v})", "tuple({v})"),
+    "vectors": ("_plain_vectors({v})", "tuple(map(tuple, {v}))"),
+    "ints": ("_plain({v}, int)", "tuple({v})"),
+    "floats": ("type({v}) is list and _finite(*{v})", "tuple({v})"),
+    "bools": ("_plain({v}, bool)", "tuple({v})"),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class WireField:
+    """One field of a message: its ``key`` in the msgpack map, the message attribute ``name``
+    it carries, its wire ``form`` and ``check``, which decodes a wire value (raising
+    :class:`DecodeError` that names where) into what the message holds. ``sparse``: written
+    only when not empty, so that a run without the feature keeps its bytes (moving obstacles)."""
+
+    key: str
+    name: str
+    form: str
+    check: Callable[[Any, str], Any]
+    sparse: bool = False
+
+
+def wire_table(cls: type[Any]) -> tuple[WireField, ...]:
+    """A message class's fields as bus/messages.py declares them, in wire order."""
+    return tuple(
+        WireField(key, name, form, CHECKS[form], sparse) for key, name, form, sparse in table(cls)
+    )
+
+
+def encoder(*tables: tuple[WireField, ...]) -> Callable[..., dict[str, Any]]:
+    """The function that maps messages to their wire map, one message per table (a ``cmd``
+    is a state and a command): a dict display of the fields always written, made from the
+    tables' own keys and names, as fast as one written by hand; then the sparse fields that
+    are not empty."""
+    args = [f"m{i}" for i in range(len(tables))]
+    items = [
+        f"{f.key!r}: {arg}.{f.name}"
+        for arg, table in zip(args, tables, strict=True)
+        for f in table
+        if not f.sparse
+    ]
+    if not all(f.name.isidentifier() for table in tables for f in table):
+        raise ValueError("a message field's name must be an identifier")
+    source = f"lambda {', '.join(args)}: {{{', '.join(items)}}}"  # keys as literals, names checked
+    build: Callable[..., dict[str, Any]] = eval(source)
+    sparse = [(f.key, f.name) for table in tables for f in table if f.sparse]
+    if not sparse:
+        return build
+    if len(tables) != 1:
+        raise ValueError("sparse fields are for one-message tables")
+
+    def encode(message: Any) -> dict[str, Any]:
+        body = build(message)
+        for key, name in sparse:
+            value = getattr(message, name)
+            if value:
+                body[key] = value
+        return body
+
+    return encode
+
+
+def _decode_fields(table: tuple[WireField, ...], m: Mapping[str, Any]) -> dict[str, Any]:
+    """The message's attributes from map ``m``, field by field, each checked (a sparse field
+    that is absent is left to the message's default)."""
+    return {f.name: _get(m, f.key, f.check) for f in table if not (f.sparse and f.key not in m)}
+
+
+def fast_decoder(cls: type[M], table: tuple[WireField, ...]) -> Callable[[Mapping[str, Any]], Any]:
+    """The common case in one pass, written from the table as :func:`encoder` is: every field
+    present with the exact wire type the encoder writes (then the message), or None, and the
+    field-by-field checks say what is wrong. Sparse fields present go through their checks."""
+    dense = [f for f in table if not f.sparse]
+    sparse = [f for f in table if f.sparse]
+    if any(f.form not in _FAST for f in dense) or len(dense) < 2:
+        return lambda m: None
+    names = [f"v{i}" for i in range(len(dense))]
+    test = " and ".join(_FAST[f.form][0].format(v=v) for f, v in zip(dense, names, strict=True))
+    made = ", ".join(_FAST[f.form][1].format(v=v) for f, v in zip(dense, names, strict=True))
+    present = " or ".join(f"{f.key!r} in m" for f in sparse)
+    source = "\n".join([
+        "def fast(m):",
+        "    try:",
+        f"        {', '.join(names)} = get(m)",
+        "    except KeyError:",
+        "        return None",
+        f"    if not ({test}):",
+        "        return None",
+        *([f"    if {present}:", f"        return cls({made}, **_decode_fields(sparse, m))"]
+          if sparse else []),
+        f"    return cls({made})",
+    ])  # fmt: skip
+    scope = {**globals(), "cls": cls, "get": itemgetter(*(f.key for f in dense)),
+             "sparse": tuple(sparse)}  # fmt: skip
+    exec(source, scope)  # keys and forms from the tables, names checked by encoder()
+    fast: Callable[[Mapping[str, Any]], M | None] = scope["fast"]
+    return fast
+
+
+def _sensing_shape(s: Sensing) -> None:
+    if not len(s.obstacle_ids) == len(s.obstacle_centres) == len(s.obstacle_radii):
+        raise DecodeError("sensing: obstacle ids, centres and radii differ in length")
+    if len(s.agent_ids) != len(s.agent_positions):
+        raise DecodeError("sensing: agent ids and positions differ in length")
+    _same_dim(len(s.position), s.obstacle_centres, "sensing.oc")
+    _same_dim(len(s.position), s.agent_positions, "sensing.ap")
+    _same_dim(len(s.position), tuple(v.centre for v in s.movers), "sensing.mv")
+
+
+def _tick_shape(t: TickRecord) -> None:
     if t.headings and len(t.headings) != len(t.positions):
         raise DecodeError("tick: headings and positions differ in length")
     if len(t.mover_centres) != len(t.mover_velocities):
@@ -574,45 +498,93 @@ def decode_tick(data: bytes) -> TickRecord:
     if n:
         movers = (*t.mover_centres, *t.mover_velocities)
         _same_dim(len(t.positions[0]), (*t.positions, *t.velocities, *movers), "tick.pos")
-    return t
 
 
-EVENT = (
-    WireField("tick", "tick", _int),
-    WireField("level", "level", _int),
-    WireField("agent", "agent", _int),
-    WireField("text", "text", _str),
-)
-_encode_event = encoder(EVENT)
-
-
-def encode_event(e: Event) -> bytes:
-    return _pack("event", _encode_event(e))
-
-
-def decode_event(data: bytes) -> Event:
-    return Event(**_decode_fields(EVENT, _unpack("event", data)))
-
-
-ROBOTS = (
-    WireField("tick", "tick", _int),
-    WireField("twist", "twists", _vectors),
-    WireField("age", "ages", _floats, sparse=True),  # only from robots that tell their poses' age
-)
-_encode_robots = encoder(ROBOTS)
-
-
-def encode_robots(r: RobotsRecord) -> bytes:
-    return _pack("robots", _encode_robots(r))
-
-
-def decode_robots(data: bytes) -> RobotsRecord:
-    r = RobotsRecord(**_decode_fields(ROBOTS, _unpack("robots", data)))
+def _robots_shape(r: RobotsRecord) -> None:
     if r.ages and len(r.ages) != len(r.twists):
         raise DecodeError("robots: ages and twists differ in length")
     if any(len(t) != 3 for t in r.twists):
         raise DecodeError("robots.twist: each is [linear x, linear y, angular z]")
-    return r
+
+
+def _whole(message: Any) -> None:
+    """No check across fields: each field's own is all."""
+
+
+@dataclass(frozen=True, slots=True)
+class Kind:
+    """What the codec knows of one message class: its ``kind`` on the wire, its fields, how
+    they are written and read, and ``shape``, the checks across fields (raising DecodeError)."""
+
+    kind: str
+    table: tuple[WireField, ...]
+    write: Callable[[Any], dict[str, Any]]
+    fast: Callable[[Mapping[str, Any]], Any]
+    shape: Callable[[Any], None]
+
+    @classmethod
+    def of(cls, kind: str, message: type[Any], shape: Callable[[Any], None] = _whole) -> Kind:
+        table = wire_table(message)
+        return cls(kind, table, encoder(table), fast_decoder(message, table), shape)
+
+
+KINDS = {
+    Sensing: Kind.of("sensing", Sensing, _sensing_shape),  # world → agent
+    AgentState: Kind.of("state", AgentState),  # agent → neighbours
+    Command: Kind.of("cmd", Command),  # agent → world, with the state (encode_report)
+    TickRecord: Kind.of("tick", TickRecord, _tick_shape),  # world → all
+    Event: Kind.of("event", Event),
+    RobotsRecord: Kind.of("robots", RobotsRecord, _robots_shape),
+}
+Message = Sensing | AgentState | TickRecord | Event | RobotsRecord
+
+
+def encode(message: Message) -> bytes:
+    """Any message but a command (:func:`encode_report`) as its msgpack map."""
+    k = KINDS[type(message)]
+    return _pack(k.kind, k.write(message))
+
+
+def _read(cls: type[M], m: Mapping[str, Any]) -> M:
+    k = KINDS[cls]
+    message: M | None = k.fast(m)
+    if message is None:
+        message = cls(**_decode_fields(k.table, m))
+    k.shape(message)
+    return message
+
+
+def decode(cls: type[M], data: bytes) -> M:
+    """A message of class ``cls`` from its bytes, every field and shape checked."""
+    return _read(cls, _unpack(KINDS[cls].kind, data))
+
+
+SENSING, STATE, TICK = KINDS[Sensing].table, KINDS[AgentState].table, KINDS[TickRecord].table
+EVENT, ROBOTS = KINDS[Event].table, KINDS[RobotsRecord].table
+# A command travels with the state it was computed from: its id and tick are the state's.
+COMMAND = tuple(f for f in KINDS[Command].table if f.key not in {g.key for g in STATE})
+_encode_report = encoder(STATE, COMMAND)
+
+
+def encode_report(state: AgentState, command: Command) -> bytes:
+    """The command of a tick, carrying what the agent announced that tick (for the record)."""
+    return _pack("cmd", _encode_report(state, command))
+
+
+def decode_report(data: bytes) -> tuple[AgentState, Command]:
+    m = _unpack("cmd", data)
+    state, command = _read(AgentState, m), _read(Command, m)
+    _same_dim(len(state.position), (command.velocity,), "cmd.vel")
+    return state, command
+
+
+# The names the processes call: each message's encoder is encode; its decoder, decode of it.
+encode_sensing = encode_state = encode_tick = encode_event = encode_robots = encode
+decode_sensing = partial(decode, Sensing)
+decode_state = partial(decode, AgentState)
+decode_tick = partial(decode, TickRecord)
+decode_event = partial(decode, Event)
+decode_robots = partial(decode, RobotsRecord)
 
 
 def encode_document(kind: str, body: Mapping[str, Any]) -> bytes:

@@ -1,7 +1,15 @@
 """The messages of a tick: what the world tells an agent (:class:`Sensing`, with the
 :class:`Mover` s it senses), what agents tell each other (:class:`AgentState`), what an agent tells
 the world (:class:`Command`), and what the world tells everyone (:class:`TickRecord`,
-:class:`Event`). Vectors and units as in bus/types.py; docs/wire.md has their encoding.
+:class:`Event`, :class:`RobotsRecord`). Vectors and units as in bus/types.py; docs/wire.md
+has their encoding.
+
+Each field is one line: its attribute, its type and its wire form (``Wire``: its key in the
+msgpack map, its default, whether it is left out when empty). ``WIRE`` and ``__init__`` below
+the fields are written from those lines by ``python -m shoal.bus.fields`` (bus/fields.py says why
+they are written out), and bus/codec.py makes every message's encoder and decoder from ``WIRE``.
+A new field takes its line here (then that command), the code that gives it a value, and its
+key in docs/wire.md's row; tests/bus/test_fields.py and test_wire.py fail until all three are.
 
 They are made every tick, so they (and ``Memory``, ``Filtered``, ``Row`` and ``Evasion`` in
 the compiled modules) are dataclasses with their own ``__init__`` and ``Final`` fields instead of
@@ -17,8 +25,9 @@ from __future__ import annotations
 
 import copyreg
 from dataclasses import dataclass, fields
-from typing import Any, Final
+from typing import Annotated, Any, ClassVar, Final
 
+from shoal.bus.fields import Wire
 from shoal.bus.types import Vector
 
 
@@ -38,14 +47,13 @@ class Mover:
     velocity: Final[Vector]
     speed_cap: Final[float]
 
-    def __init__(
-        self, obstacle_id: int, centre: Vector, radius: float, velocity: Vector, speed_cap: float
-    ) -> None:
-        self.obstacle_id = obstacle_id
-        self.centre = centre
-        self.radius = radius
-        self.velocity = velocity
-        self.speed_cap = speed_cap
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    def __init__(self, obstacle_id: int, centre: Vector, radius: float, velocity: Vector,
+                       speed_cap: float) -> None:  # fmt: skip
+        self.obstacle_id, self.centre, self.radius = obstacle_id, centre, radius
+        self.velocity, self.speed_cap = velocity, speed_cap
+
+    # End of what is written.
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -62,37 +70,31 @@ class Sensing:
         the safety filter meets its limits as rows for it (docs/safety.md, Unicycles).
     """
 
-    tick: Final[int]
-    position: Final[Vector]
-    obstacle_ids: Final[tuple[int, ...]]
-    obstacle_centres: Final[tuple[Vector, ...]]
-    obstacle_radii: Final[tuple[float, ...]]
-    agent_ids: Final[tuple[int, ...]]
-    agent_positions: Final[tuple[Vector, ...]]
-    movers: Final[tuple[Mover, ...]]
-    heading: Final[float]
+    tick: Final[Annotated[int, Wire("tick")]]
+    position: Final[Annotated[Vector, Wire("pos")]]
+    obstacle_ids: Final[Annotated[tuple[int, ...], Wire("oid")]]
+    obstacle_centres: Final[Annotated[tuple[Vector, ...], Wire("oc")]]
+    obstacle_radii: Final[Annotated[tuple[float, ...], Wire("or")]]
+    agent_ids: Final[Annotated[tuple[int, ...], Wire("aid", default=())]]
+    agent_positions: Final[Annotated[tuple[Vector, ...], Wire("ap", default=())]]
+    movers: Final[Annotated[tuple[Mover, ...], Wire("mv", default=(), sparse=True)]]
+    heading: Final[Annotated[float, Wire("hd", default=0.0, sparse=True)]]
 
-    def __init__(
-        self,
-        tick: int,
-        position: Vector,
-        obstacle_ids: tuple[int, ...],
-        obstacle_centres: tuple[Vector, ...],
-        obstacle_radii: tuple[float, ...],
-        agent_ids: tuple[int, ...] = (),
-        agent_positions: tuple[Vector, ...] = (),
-        movers: tuple[Mover, ...] = (),
-        heading: float = 0.0,
-    ) -> None:
-        self.tick = tick
-        self.position = position
-        self.obstacle_ids = obstacle_ids
-        self.obstacle_centres = obstacle_centres
-        self.obstacle_radii = obstacle_radii
-        self.agent_ids = agent_ids
-        self.agent_positions = agent_positions
-        self.movers = movers
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "pos:vector", "oid:ints", "oc:vectors",
+                                       "or:floats", "aid:ints", "ap:vectors", "mv:movers?",
+                                       "hd:float?")  # fmt: skip
+
+    def __init__(self, tick: int, position: Vector, obstacle_ids: tuple[int, ...],
+                       obstacle_centres: tuple[Vector, ...], obstacle_radii: tuple[float, ...],
+                       agent_ids: tuple[int, ...] = (), agent_positions: tuple[Vector, ...] = (),
+                       movers: tuple[Mover, ...] = (), heading: float = 0.0) -> None:  # fmt: skip
+        self.tick, self.position, self.obstacle_ids = tick, position, obstacle_ids
+        self.obstacle_centres, self.obstacle_radii = obstacle_centres, obstacle_radii
+        self.agent_ids, self.agent_positions, self.movers = agent_ids, agent_positions, movers
         self.heading = heading
+
+    # End of what is written.
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -101,31 +103,24 @@ class AgentState:
     current value of its σ bid in Algorithm 1, and the scale σ and rotation θ (rad) it applies.
     """
 
-    agent_id: Final[int]
-    tick: Final[int]
-    position: Final[Vector]
-    omega: Final[bool]
-    bid: Final[float]
-    sigma: Final[float]
-    theta: Final[float]
+    agent_id: Final[Annotated[int, Wire("id")]]
+    tick: Final[Annotated[int, Wire("tick")]]
+    position: Final[Annotated[Vector, Wire("pos")]]
+    omega: Final[Annotated[bool, Wire("omega")]]
+    bid: Final[Annotated[float, Wire("bid")]]
+    sigma: Final[Annotated[float, Wire("sigma")]]
+    theta: Final[Annotated[float, Wire("theta")]]
 
-    def __init__(
-        self,
-        agent_id: int,
-        tick: int,
-        position: Vector,
-        omega: bool,
-        bid: float,
-        sigma: float,
-        theta: float,
-    ) -> None:
-        self.agent_id = agent_id
-        self.tick = tick
-        self.position = position
-        self.omega = omega
-        self.bid = bid
-        self.sigma = sigma
-        self.theta = theta
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    WIRE: ClassVar[tuple[str, ...]] = ("id:int", "tick:int", "pos:vector", "omega:bool",
+                                       "bid:float", "sigma:float", "theta:float")  # fmt: skip
+
+    def __init__(self, agent_id: int, tick: int, position: Vector, omega: bool, bid: float,
+                       sigma: float, theta: float) -> None:  # fmt: skip
+        self.agent_id, self.tick, self.position, self.omega = agent_id, tick, position, omega
+        self.bid, self.sigma, self.theta = bid, sigma, theta
+
+    # End of what is written.
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -133,16 +128,19 @@ class Command:
     """Agent → world: the velocity v_i (m/s) to hold during tick ``tick``; ``filtered``: the
     agent's safety filter changed its nominal velocity to get it."""
 
-    agent_id: Final[int]
-    tick: Final[int]
-    velocity: Final[Vector]
-    filtered: Final[bool]
+    agent_id: Final[Annotated[int, Wire("id")]]
+    tick: Final[Annotated[int, Wire("tick")]]
+    velocity: Final[Annotated[Vector, Wire("vel")]]
+    filtered: Final[Annotated[bool, Wire("flt", default=False)]]
 
-    def __init__(self, agent_id: int, tick: int, velocity: Vector, filtered: bool = False) -> None:
-        self.agent_id = agent_id
-        self.tick = tick
-        self.velocity = velocity
-        self.filtered = filtered
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    WIRE: ClassVar[tuple[str, ...]] = ("id:int", "tick:int", "vel:vector", "flt:bool")  # fmt: skip
+
+    def __init__(self, agent_id: int, tick: int, velocity: Vector,
+                       filtered: bool = False) -> None:  # fmt: skip
+        self.agent_id, self.tick, self.velocity, self.filtered = agent_id, tick, velocity, filtered
+
+    # End of what is written.
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -158,46 +156,37 @@ class TickRecord:
     start of the tick, agent-id order (empty for single integrators).
     """
 
-    tick: Final[int]
-    positions: Final[tuple[Vector, ...]]
-    velocities: Final[tuple[Vector, ...]]
-    omega: Final[tuple[bool, ...]]
-    bid: Final[tuple[float, ...]]
-    sigma: Final[tuple[float, ...]]
-    theta: Final[tuple[float, ...]]
-    alive: Final[tuple[bool, ...]]
-    filtered: Final[tuple[bool, ...]]
-    mover_centres: Final[tuple[Vector, ...]]
-    mover_velocities: Final[tuple[Vector, ...]]
-    headings: Final[tuple[float, ...]]
+    tick: Final[Annotated[int, Wire("tick")]]
+    positions: Final[Annotated[tuple[Vector, ...], Wire("pos")]]
+    velocities: Final[Annotated[tuple[Vector, ...], Wire("vel")]]
+    omega: Final[Annotated[tuple[bool, ...], Wire("omega")]]
+    bid: Final[Annotated[tuple[float, ...], Wire("bid")]]
+    sigma: Final[Annotated[tuple[float, ...], Wire("sigma")]]
+    theta: Final[Annotated[tuple[float, ...], Wire("theta")]]
+    alive: Final[Annotated[tuple[bool, ...], Wire("alive")]]
+    filtered: Final[Annotated[tuple[bool, ...], Wire("flt")]]
+    mover_centres: Final[Annotated[tuple[Vector, ...], Wire("mc", default=(), sparse=True)]]
+    mover_velocities: Final[Annotated[tuple[Vector, ...], Wire("mw", default=(), sparse=True)]]
+    headings: Final[Annotated[tuple[float, ...], Wire("hd", default=(), sparse=True)]]
 
-    def __init__(
-        self,
-        tick: int,
-        positions: tuple[Vector, ...],
-        velocities: tuple[Vector, ...],
-        omega: tuple[bool, ...],
-        bid: tuple[float, ...],
-        sigma: tuple[float, ...],
-        theta: tuple[float, ...],
-        alive: tuple[bool, ...],
-        filtered: tuple[bool, ...],
-        mover_centres: tuple[Vector, ...] = (),
-        mover_velocities: tuple[Vector, ...] = (),
-        headings: tuple[float, ...] = (),
-    ) -> None:
-        self.tick = tick
-        self.positions = positions
-        self.velocities = velocities
-        self.omega = omega
-        self.bid = bid
-        self.sigma = sigma
-        self.theta = theta
-        self.alive = alive
-        self.filtered = filtered
-        self.mover_centres = mover_centres
-        self.mover_velocities = mover_velocities
-        self.headings = headings
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "pos:vectors", "vel:vectors", "omega:bools",
+                                       "bid:floats", "sigma:floats", "theta:floats", "alive:bools",
+                                       "flt:bools", "mc:vectors?", "mw:vectors?",
+                                       "hd:floats?")  # fmt: skip
+
+    def __init__(self, tick: int, positions: tuple[Vector, ...], velocities: tuple[Vector, ...],
+                       omega: tuple[bool, ...], bid: tuple[float, ...], sigma: tuple[float, ...],
+                       theta: tuple[float, ...], alive: tuple[bool, ...],
+                       filtered: tuple[bool, ...], mover_centres: tuple[Vector, ...] = (),
+                       mover_velocities: tuple[Vector, ...] = (),
+                       headings: tuple[float, ...] = ()) -> None:  # fmt: skip
+        self.tick, self.positions, self.velocities, self.omega = tick, positions, velocities, omega
+        self.bid, self.sigma, self.theta, self.alive = bid, sigma, theta, alive
+        self.filtered, self.mover_centres = filtered, mover_centres
+        self.mover_velocities, self.headings = mover_velocities, headings
+
+    # End of what is written.
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -205,16 +194,19 @@ class Event:
     """World → all: a line for the log. level: 1 debug, 2 info, 3 warning, 4 error (as
     foxglove.Log); agent: the agent it is about, 0 if none."""
 
-    tick: Final[int]
-    level: Final[int]
-    agent: Final[int]
-    text: Final[str]
+    tick: Final[Annotated[int, Wire("tick")]]
+    level: Final[Annotated[int, Wire("level")]]
+    agent: Final[Annotated[int, Wire("agent")]]
+    text: Final[Annotated[str, Wire("text")]]
 
-    def __init__(self, tick: int, level: int, agent: int, text: str) -> None:
-        self.tick = tick
-        self.level = level
-        self.agent = agent
-        self.text = text
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "level:int", "agent:int",
+                                       "text:str")  # fmt: skip
+
+    def __init__(self, tick: int, level: int, agent: int, text: str) -> None:  # fmt: skip
+        self.tick, self.level, self.agent, self.text = tick, level, agent, text
+
+    # End of what is written.
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -225,14 +217,18 @@ class RobotsRecord:
     (s): how old each robot's pose was when the world read it at the tick's start (empty when
     the robots cannot tell). Agent-id order."""
 
-    tick: Final[int]
-    twists: Final[tuple[Vector, ...]]
-    ages: Final[tuple[float, ...]]
+    tick: Final[Annotated[int, Wire("tick")]]
+    twists: Final[Annotated[tuple[Vector, ...], Wire("twist")]]
+    ages: Final[Annotated[tuple[float, ...], Wire("age", default=(), sparse=True)]]
 
-    def __init__(self, tick: int, twists: tuple[Vector, ...], ages: tuple[float, ...] = ()) -> None:
-        self.tick = tick
-        self.twists = twists
-        self.ages = ages
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "twist:vectors", "age:floats?")  # fmt: skip
+
+    def __init__(self, tick: int, twists: tuple[Vector, ...],
+                       ages: tuple[float, ...] = ()) -> None:  # fmt: skip
+        self.tick, self.twists, self.ages = tick, twists, ages
+
+    # End of what is written.
 
 
 def _rebuilt(record: Any) -> tuple[type[Any], tuple[Any, ...]]:
