@@ -10,7 +10,7 @@ import click
 from shoal.tools.commands.logs import one_log, the_log
 from shoal.tools.foxglove.export import ExportError, ExportResult, sibling, with_progress
 from shoal.tools.foxglove.views import ViewOptions
-from shoal.tools.ros2 import bag as ros2_bag
+from shoal.tools.rosbag import writer as ros2_bag
 
 
 def describe(result: ExportResult) -> str:
@@ -98,7 +98,7 @@ def export(
 
 
 def export_ros2(file: Path, bag: Path, *, force: bool, as_json: bool) -> None:
-    """``--ros2 DIR``: the run as a rosbag2 directory (tools/ros2/bag.py)."""
+    """``--ros2 DIR``: the run as a rosbag2 directory (tools/rosbag/writer.py)."""
     try:
         result = ros2_bag.with_progress(file, bag, force=force)
     except ros2_bag.Ros2Error as exc:

@@ -19,7 +19,7 @@ is l ahead on its x axis). Topics (docs/ros2.md):
 - ``/shoal/graph`` visualization_msgs/msg/MarkerArray: the sensing graph's edges, as Foxglove's
   graph layer derives them (followed, dropped while the other end evades, gone);
 - ``/shoal/metrics/<name>`` std_msgs/msg/Float64 and ``/shoal/metrics/<name>/agents``
-  std_msgs/msg/Float64MultiArray (data[i] is agent i + 1): tools/ros2/metrics.py.
+  std_msgs/msg/Float64MultiArray (data[i] is agent i + 1): tools/rosbag/metrics.py.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from shoal.bus.messages import TickRecord
 from shoal.tools.foxglove.msgs import RGBA, vec3s, yaw
 from shoal.tools.foxglove.scene import EDGE, MOVER, OBSTACLE, PILLAR_M, Layers, frame
 from shoal.tools.foxglove.views import BLOCK, RunLog
-from shoal.tools.ros2.metrics import Metrics, metrics
+from shoal.tools.rosbag.metrics import Metrics, metrics
 from shoal.world.scenario import Scenario
 from shoal.world.unicycle import body_centres, wheel_command
 

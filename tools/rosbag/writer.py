@@ -57,7 +57,7 @@ class BagResult:
 def require_rosbags() -> None:
     """Ros2Missing unless rosbags (and the message module built on it) import."""
     try:
-        for module in ("rosbags.rosbag2", "rosbags.typesys", "shoal.tools.ros2.msgs"):
+        for module in ("rosbags.rosbag2", "rosbags.typesys", "shoal.tools.rosbag.msgs"):
             importlib.import_module(module)
     except ImportError as exc:
         raise Ros2Missing(str(exc)) from None
@@ -125,7 +125,7 @@ def _write(
     from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
-    from shoal.tools.ros2.msgs import messages
+    from shoal.tools.rosbag.msgs import messages
 
     store = get_typestore(Stores.ROS2_JAZZY)
     connections: dict[str, Connection] = {}
