@@ -100,7 +100,7 @@ def steer(
     view later can lie across it (a vertex inside its guard): then the detour still ahead is
     dropped and planned anew, from here to the next waypoint, against every obstacle sensed now.
     Without that the leader headed for a vertex it could never reach and circled the obstacle
-    that held it for the rest of the run (issue 29: 5 of 6 fields of another generator that
+    that held it for the rest of the run (5 of 6 fields of another generator that
     never arrived). While the detour ahead is clear it is kept as it is; with no detour ahead,
     :func:`detour` plans one if the next leg needs it. Points already reached (within ``reach``
     m) are dropped."""

@@ -396,7 +396,7 @@ def slide_right(nominal: Vector, filtered: Vector, rows: Sequence[Row], dt: floa
 
     The right-hand rule (:func:`sidestep`) turns the nominal to the right of whoever holds the
     agent; in a crowd pressed together from every side (eight followers on a ring, each sent to
-    the opposite side through the leader in the middle: issue 29) the turned nominal is blocked
+    the opposite side through the leader in the middle) the turned nominal is blocked
     too, every agent's projection is 0, and nobody moves again. The cell of a jammed agent is a
     cone at its position that opens away from the crowd: its faces are the bisectors with the
     agents that hold it. So when the velocity kept is still below :data:`SIDESTEP_BELOW` of the
@@ -460,6 +460,7 @@ def keep_going(
     return tuple(out) if changed else None
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class SafetyFilter:
     """One agent's safety filter, configured once per run (the Robotarium's
     ``create_si_barrier_certificate`` likewise returns a configured function): call it every
@@ -474,35 +475,14 @@ class SafetyFilter:
     leave out the rows of the agents a sensing names (a robot's own layer meets its cells from
     a common snapshot instead, as ``extra`` rows: world/onboard.py)."""
 
-    agent_id: Final[int]
-    dt: Final[float]
-    margin: Final[float]
-    half_separation: Final[float]
-    speed_limit: Final[float]
-    limits: Final[tuple[LimitSide, ...]]
-    right_hand: Final[bool]
-    agents: Final[bool]
-
-    def __init__(
-        self,
-        agent_id: int,
-        *,
-        dt: float,
-        margin: float,
-        half_separation: float,
-        speed_limit: float,
-        limits: Sequence[LimitSide] = (),
-        right_hand: bool = True,
-        agents: bool = True,
-    ) -> None:
-        self.agent_id = agent_id
-        self.dt = dt
-        self.margin = margin
-        self.half_separation = half_separation
-        self.speed_limit = speed_limit
-        self.limits = tuple(limits)
-        self.right_hand = right_hand
-        self.agents = agents
+    agent_id: int
+    dt: float
+    margin: float
+    half_separation: float
+    speed_limit: float
+    limits: tuple[LimitSide, ...] = ()
+    right_hand: bool = True
+    agents: bool = True
 
     @staticmethod
     def of(
@@ -515,12 +495,12 @@ class SafetyFilter:
     ) -> SafetyFilter:
         """Agent ``agent_id``'s filter with a run's margins, separation and speed limit."""
         return SafetyFilter(
-            agent_id,
+            agent_id=agent_id,
             dt=dt,
             margin=params.safety_margin,
             half_separation=params.separation / 2.0,
             speed_limit=params.speed_limit,
-            limits=limits,
+            limits=tuple(limits),
             agents=agents,
         )
 
@@ -622,7 +602,7 @@ def safe_velocity(
     """One call of a filter configured for it (tests, one-off checks): ``settings`` are
     :class:`SafetyFilter`'s; ``heading`` (rad) in place of the sensing's. A process configures
     its filter once and calls it every tick."""
-    f = SafetyFilter(agent_id, **settings)
+    f = SafetyFilter(agent_id=agent_id, **settings)
     return f._filter(
         nominal, sensing, previous, extra, sensing.heading if heading is None else heading
     )

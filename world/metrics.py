@@ -254,6 +254,12 @@ def _bound_from_start(scenario: Scenario, traj: Trajectory) -> float:
             ]
         )
     )
+    return scenario_bound(scenario, z0)
+
+
+def scenario_bound(scenario: Scenario, z0: FloatArray) -> float:
+    """s: Theorem 1's (Remark 3's, directed) bound for ``scenario``'s graph, gains and path
+    from the followers' formation errors ``z0`` ((n − 1, dim), m)."""
     return convergence_bound(
         scenario.adjacency,
         z0,

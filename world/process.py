@@ -123,7 +123,7 @@ class World(Declarations):
         """Agent ``i``'s configuration. Driving robots, the leader counts a waypoint as visited
         within a tick's travel at the path's speed, the finest that commands held for a tick
         place a robot. Within 1 nm, as simulated, late poses made the leader overshoot its first
-        corner and be sent back for the rest of the run (issue 33; tests/agent/test_leader.py)."""
+        corner and be sent back for the rest of the run (tests/agent/test_leader.py)."""
         config = self.scenario.agent_config(i, self.options.clock)
         path = config.path
         if self.options.plant is None or not isinstance(path, Waypoints):

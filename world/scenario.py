@@ -63,7 +63,7 @@ class AgentSpec:
 
 # Realtime: ticks one round of Algorithm 1 may take. An agent acts on the freshest state it has
 # of each neighbour, often a tick or more old (more on a loaded machine), so an epoch of L_G
-# ticks ended before the maximum had spread and agents applied different σ (issue 16, item 1).
+# ticks ended before the maximum had spread and agents applied different σ.
 REALTIME_TICKS_PER_ROUND = 4
 
 

@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from shoal.bus.path import peak_speed
 from shoal.tools.simulator import run
 from shoal.world.loader import scenario_from_dict
+from shoal.world.metrics import scenario_bound
 from shoal.world.scenario import Scenario
-from shoal.world.theory import convergence_bound, formation_error
+from shoal.world.theory import formation_error
 
 RUNS = 200
 BETA = 2.0
@@ -96,14 +96,7 @@ def first_convergence(scenario: Scenario, deadline: float) -> float | None:
 
 
 def bound_of(scenario: Scenario) -> float:
-    z0 = formation_error(scenario.initial_positions, scenario.offsets)
-    return convergence_bound(
-        scenario.adjacency,
-        z0,
-        directed=scenario.directed,
-        beta=scenario.control.beta,
-        f_max=peak_speed(scenario.path),
-    )
+    return scenario_bound(scenario, formation_error(scenario.initial_positions, scenario.offsets))
 
 
 @pytest.mark.parametrize("directed", [False, True], ids=["theorem1-undirected", "remark3-directed"])
