@@ -34,7 +34,7 @@ def agent_name(agent: int) -> str:
 
 
 @dataclass(frozen=True)
-class Role:
+class Permissions:
     """What one identity may do in a run, by kind of traffic; every entry is a key expression."""
 
     name: str
@@ -47,7 +47,7 @@ class Role:
     serves: tuple[str, ...] = ()  # declare a queryable, be sent the queries, reply
 
 
-def roles(run: str, agents: int) -> list[Role]:
+def roles(run: str, agents: int) -> list[Permissions]:
     """Every identity of run ``run`` with agents 1..``agents`` and what it needs, no more.
 
     The world alone publishes sensing, ticks, events, the scenario, the summary and (driving
@@ -57,7 +57,7 @@ def roles(run: str, agents: int) -> list[Role]:
     and the monitor only listen.
     """
     k = Keys(run)
-    world = Role(
+    world = Permissions(
         WORLD,
         token=k.alive_world,
         publishes=(k.sensings, k.tick, k.event, k.summary, k.scenario, k.robots),
@@ -67,20 +67,20 @@ def roles(run: str, agents: int) -> list[Role]:
         serves=(k.configs,),
         queries=(k.reports,),  # at the end of the run: every agent's figures (bus/report.py)
     )
-    logger = Role(
+    logger = Permissions(
         LOGGER,
         token=k.alive_logger,
         subscribes=(k.everything,),
         watches=(k.alive_world,),
     )
-    monitor = Role(
+    monitor = Permissions(
         MONITOR,
         token=k.alive_process(MONITOR),
         subscribes=(k.tick, k.summary, k.event),  # events: for the live view's log
         watches=(k.alive_agents,),
     )
     agent_roles = [
-        Role(
+        Permissions(
             agent_name(i),
             token=k.alive_agent(i),
             publishes=(k.state(i), k.command(i)),
@@ -95,7 +95,7 @@ def roles(run: str, agents: int) -> list[Role]:
     return [world, logger, monitor, *agent_roles]
 
 
-def rules_of(role: Role) -> list[dict[str, Any]]:
+def rules_of(role: Permissions) -> list[dict[str, Any]]:
     """Zenoh ACL rules (all "allow") that grant ``role`` exactly its entries."""
     grants: list[tuple[str, str, list[str], tuple[str, ...]]] = [
         ("token", "ingress", ["liveliness_token"], (role.token,)),

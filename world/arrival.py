@@ -70,7 +70,7 @@ CAUSES = ("leader trapped", "deadlock", "livelock", "out of time")
 
 
 @dataclass(frozen=True)
-class Arrival:
+class ArrivalVerdict:
     """Whether and when a run arrived (module docstring). ``time`` s or None; ``tolerance``
     R, m; ``cause`` one of :data:`CAUSES` or None if it arrived; ``livelocks`` episodes and
     the ``longest_livelock`` s; ``slot_distance``: the largest window-averaged distance of a
@@ -195,7 +195,7 @@ def _shape_changes(traj: Trajectory) -> BoolArray:
     return out
 
 
-def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
+def arrival(scenario: Scenario, traj: Trajectory) -> ArrivalVerdict:
     """Whether, when, and if not why the run arrived, and its livelocks (module docstring)."""
     tol = arrival_tolerance(scenario)
     dt, ticks = traj.dt, traj.ticks
@@ -230,7 +230,7 @@ def arrival(scenario: Scenario, traj: Trajectory) -> Arrival:
             cause = "out of time"
     before = np.flatnonzero(~ok)
     start = int(before[-1]) + 1 if before.size else 0
-    return Arrival(
+    return ArrivalVerdict(
         arrived=bool(ok[last]),
         time=start * dt if ok[last] else None,
         tolerance=tol,

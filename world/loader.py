@@ -26,7 +26,7 @@ from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoin
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
 from shoal.world.movers import Drift, Motion, Person, Route
-from shoal.world.scenario import AgentSpec, Control, Obstacle, RobotSetup, Scenario, Unicycle
+from shoal.world.scenario import AgentSetup, Control, Obstacle, RobotSetup, Scenario, Unicycle
 
 _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
@@ -463,7 +463,7 @@ def _path(value: Any, dim: int) -> PathSpec:
 
 def _agents(
     value: Any, dim: int, path: PathSpec, seed: int, noise: Any, unicycles: bool
-) -> tuple[AgentSpec, ...]:
+) -> tuple[AgentSetup, ...]:
     """``agents``; each a unicycle when ``unicycles`` (the scenario's kinematics say so) unless
     its own ``kinematics: single`` makes it holonomic (and ``kinematics: unicycle`` the other
     way round, which then needs the scenario's unicycle figures)."""
@@ -501,7 +501,7 @@ def _agents(
             raise ScenarioError(
                 f"{where}.kinematics", f"must be single or unicycle, got {_shown(model)}"
             )
-        spec = AgentSpec(
+        spec = AgentSetup(
             agent_id=k + 1, initial=initial, offset=offset, given_initial=given, heading=heading,
             single=model == "single" or (model is None and not unicycles),
         )  # fmt: skip

@@ -49,7 +49,7 @@ class Obstacle:
 
 
 @dataclass(frozen=True, slots=True)
-class AgentSpec:
+class AgentSetup:
     """One agent: where it starts and its desired offset δ_i from the leader;
     ``given_initial``: its start is the file's ``initial`` (else path start + δ_i + noise)."""
 
@@ -162,7 +162,7 @@ class Scenario:
     dt: float
     duration: float
     seed: int
-    agents: tuple[AgentSpec, ...]
+    agents: tuple[AgentSetup, ...]
     directed: bool
     edges: tuple[tuple[int, int], ...]
     path: PathSpec
