@@ -104,7 +104,7 @@ def measure_floor(
 
 
 @dataclass(frozen=True)
-class Pair:
+class FloorAndRun:
     """One floor measurement and one lockstep run of the same size, back to back."""
 
     floor: dict[str, Any]
@@ -118,7 +118,7 @@ class Pair:
 
 def _pair(
     n: int, ticks: int, work: Path, *, floor_first: bool, tag: str, say: Callable[[str], None]
-) -> Pair:
+) -> FloorAndRun:
     def floor() -> dict[str, Any]:
         say(f"{n} agents: floor{tag}")
         return measure_floor(n, ticks)
@@ -135,10 +135,10 @@ def _pair(
     else:
         real, steal = run()
         f = floor()
-    return Pair(f, real, steal)
+    return FloorAndRun(f, real, steal)
 
 
-def _row(n: int, ticks: int, pairs: list[Pair]) -> dict[str, Any]:
+def _row(n: int, ticks: int, pairs: list[FloorAndRun]) -> dict[str, Any]:
     """A size's figures: with one pair, that pair's; with more, the medians, the pair whose
     ratio is the median for the CPU per tick, and every pair's ratio."""
     median = sorted(pairs, key=lambda p: p.ratio)[(len(pairs) - 1) // 2]

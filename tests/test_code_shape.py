@@ -1,5 +1,6 @@
-"""The core stays readable: no function of agent/, bus/ or world/ longer than 80 lines, and the
-world's tick loop only I/O around the run's step (world/step.py), under 40."""
+"""The code stays readable: no function of agent/, bus/ or world/ longer than 80 lines, the
+world's tick loop only I/O around the run's step (world/step.py), under 40, and one class per
+name across the package."""
 
 from __future__ import annotations
 
@@ -49,3 +50,14 @@ def test_the_measure_sees_a_long_function(tmp_path: Path) -> None:
     body = "".join(f"        x{k} = {k}\n" for k in range(LONGEST))
     (tmp_path / "long.py").write_text(f"class A:\n    def f(self):\n{body}", encoding="utf-8")
     assert _functions(tmp_path / "long.py")["A.f"] == LONGEST + 1
+
+
+def test_one_class_per_name() -> None:
+    """Two classes of one name (two ``AgentSpec``, two ``Arrival``) make every import a guess."""
+    where: dict[str, list[str]] = {}
+    for folder in (*CORE, "tools", "src"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.parse(path.read_text(encoding="utf-8")).body:
+                if isinstance(node, ast.ClassDef):
+                    where.setdefault(node.name, []).append(str(path.relative_to(ROOT)))
+    assert not {name: paths for name, paths in where.items() if len(paths) > 1}
