@@ -111,23 +111,26 @@ def init_source(fields: list[Declared], indent: str) -> list[str]:
     return head + [f"    {', '.join(f'self.{n}' for n in g)} = {', '.join(g)}" for g in body]
 
 
-def wire_source(fields: list[Declared], indent: str) -> list[str]:
-    """``WIRE``: "key:form" per field in the fields' order, "?" after the form of a sparse one."""
-    rows = []
-    for f in fields:
-        if f.wire is None:
-            return []
-        if f.type not in FORMS:
-            raise ValueError(f"{f.name}: no wire form for {f.type} (bus/fields.py FORMS)")
-        rows.append(f'"{f.wire.key}:{FORMS[f.type]}{"?" if f.wire.sparse else ""}"')
-    return _packed("WIRE: ClassVar[tuple[str, ...]] = (", rows, ")  # fmt: skip", indent)
+def wire_source(classes: list[type[Any]]) -> list[str]:
+    """``WIRE``: per message class, "key:form" per field in the fields' order ("?" after the
+    form of a sparse field). A module-level table, not a class attribute: a compiled dataclass
+    would take a class attribute for one more field."""
+    lines = ["WIRE: dict[type[Any], tuple[str, ...]] = {"]
+    for cls in classes:
+        rows = []
+        for f in declared(cls):
+            if f.wire is None or f.type not in FORMS:
+                raise ValueError(f"{cls.__name__}.{f.name}: no Wire(key), or no form for {f.type}")
+            rows.append(f'"{f.wire.key}:{FORMS[f.type]}{"?" if f.wire.sparse else ""}"')
+        lines += _packed(f"    {cls.__name__}: (", rows, "),", "    ")
+    return [*lines, "}  # fmt: skip"]
 
 
 def table(cls: type[Any]) -> list[tuple[str, str, str, bool]]:
     """A message class's wire table from its ``WIRE`` (either build): (key, attribute, form,
     sparse) per field, in the fields' order."""
     names = [f.name for f in dataclasses.fields(cls)]
-    wire: tuple[str, ...] = cls.WIRE
+    wire: tuple[str, ...] = sys.modules[cls.__module__].WIRE.get(cls, ())
     if len(wire) != len(names):
         raise ValueError(f"{cls.__name__}: WIRE is stale (python -m shoal.bus.fields)")
     rows = []
@@ -151,9 +154,11 @@ def written(source: str, module: Any) -> str:
             cls = re.split(r"[(:]", line[6:])[0]
         if line.strip() == BEGIN:
             indent = line[: len(line) - len(line.lstrip())]
-            fields = declared(getattr(module, cls))
-            wire = wire_source(fields, indent)
-            block = [BEGIN, *wire, *([""] if wire else []), *init_source(fields, indent), "", END]
+            if indent:  # in a class: its __init__
+                body = [*init_source(declared(getattr(module, cls)), indent), ""]
+            else:  # at the end of the module: every message's WIRE
+                body = wire_source([c for c in _classes(module) if c.__name__ in _wired(source)])
+            block = [BEGIN, *body, END]
             out += [f"{indent}{text}\n" if text else "\n" for text in block]
             skipping = True
         elif skipping:
@@ -161,6 +166,25 @@ def written(source: str, module: Any) -> str:
         else:
             out.append(line)
     return "".join(out)
+
+
+def _classes(module: Any) -> list[type[Any]]:
+    """The dataclasses ``module`` defines, in the order it defines them."""
+    found = [
+        v for v in vars(module).values() if isinstance(v, type) and dataclasses.is_dataclass(v)
+    ]
+    return [c for c in found if c.__module__ == module.__name__]
+
+
+def _wired(source: str) -> set[str]:
+    """The classes of ``source`` that declare a field with a wire form."""
+    names, cls = set(), ""
+    for line in source.splitlines():
+        if line.startswith("class "):
+            cls = re.split(r"[(:]", line[6:])[0]
+        elif "Wire(" in line and line.startswith("    ") and ": Final[" in line:
+            names.add(cls)
+    return names
 
 
 def main() -> None:

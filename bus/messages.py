@@ -5,11 +5,12 @@ the world (:class:`Command`), and what the world tells everyone (:class:`TickRec
 has their encoding.
 
 Each field is one line: its attribute, its type and its wire form (``Wire``: its key in the
-msgpack map, its default, whether it is left out when empty). ``WIRE`` and ``__init__`` below
-the fields are written from those lines by ``python -m shoal.bus.fields`` (bus/fields.py says why
-they are written out), and bus/codec.py makes every message's encoder and decoder from ``WIRE``.
-A new field takes its line here (then that command), the code that gives it a value, and its
-key in docs/wire.md's row; tests/bus/test_fields.py and test_wire.py fail until all three are.
+msgpack map, its default, whether it is left out when empty). Each class's ``__init__`` and the
+module's ``WIRE`` are written from those lines by ``python -m shoal.bus.fields`` (bus/fields.py
+says why they are written out), and bus/codec.py makes every message's encoder and decoder from
+``WIRE``. A new field takes its line here (then that command), the code that gives it a value,
+and its key in docs/wire.md's row; tests/bus/test_fields.py and test_wire.py fail until all
+three are there.
 
 They are made every tick, so they (and ``Memory``, ``Filtered``, ``Row`` and ``Evasion`` in
 the compiled modules) are dataclasses with their own ``__init__`` and ``Final`` fields instead of
@@ -25,7 +26,7 @@ from __future__ import annotations
 
 import copyreg
 from dataclasses import dataclass, fields
-from typing import Annotated, Any, ClassVar, Final
+from typing import Annotated, Any, Final
 
 from shoal.bus.fields import Wire
 from shoal.bus.types import Vector
@@ -81,10 +82,6 @@ class Sensing:
     heading: Final[Annotated[float, Wire("hd", default=0.0, sparse=True)]]
 
     # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
-    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "pos:vector", "oid:ints", "oc:vectors",
-                                       "or:floats", "aid:ints", "ap:vectors", "mv:movers?",
-                                       "hd:float?")  # fmt: skip
-
     def __init__(self, tick: int, position: Vector, obstacle_ids: tuple[int, ...],
                        obstacle_centres: tuple[Vector, ...], obstacle_radii: tuple[float, ...],
                        agent_ids: tuple[int, ...] = (), agent_positions: tuple[Vector, ...] = (),
@@ -112,9 +109,6 @@ class AgentState:
     theta: Final[Annotated[float, Wire("theta")]]
 
     # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
-    WIRE: ClassVar[tuple[str, ...]] = ("id:int", "tick:int", "pos:vector", "omega:bool",
-                                       "bid:float", "sigma:float", "theta:float")  # fmt: skip
-
     def __init__(self, agent_id: int, tick: int, position: Vector, omega: bool, bid: float,
                        sigma: float, theta: float) -> None:  # fmt: skip
         self.agent_id, self.tick, self.position, self.omega = agent_id, tick, position, omega
@@ -134,8 +128,6 @@ class Command:
     filtered: Final[Annotated[bool, Wire("flt", default=False)]]
 
     # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
-    WIRE: ClassVar[tuple[str, ...]] = ("id:int", "tick:int", "vel:vector", "flt:bool")  # fmt: skip
-
     def __init__(self, agent_id: int, tick: int, velocity: Vector,
                        filtered: bool = False) -> None:  # fmt: skip
         self.agent_id, self.tick, self.velocity, self.filtered = agent_id, tick, velocity, filtered
@@ -170,11 +162,6 @@ class TickRecord:
     headings: Final[Annotated[tuple[float, ...], Wire("hd", default=(), sparse=True)]]
 
     # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
-    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "pos:vectors", "vel:vectors", "omega:bools",
-                                       "bid:floats", "sigma:floats", "theta:floats", "alive:bools",
-                                       "flt:bools", "mc:vectors?", "mw:vectors?",
-                                       "hd:floats?")  # fmt: skip
-
     def __init__(self, tick: int, positions: tuple[Vector, ...], velocities: tuple[Vector, ...],
                        omega: tuple[bool, ...], bid: tuple[float, ...], sigma: tuple[float, ...],
                        theta: tuple[float, ...], alive: tuple[bool, ...],
@@ -200,9 +187,6 @@ class Event:
     text: Final[Annotated[str, Wire("text")]]
 
     # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
-    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "level:int", "agent:int",
-                                       "text:str")  # fmt: skip
-
     def __init__(self, tick: int, level: int, agent: int, text: str) -> None:  # fmt: skip
         self.tick, self.level, self.agent, self.text = tick, level, agent, text
 
@@ -222,8 +206,6 @@ class RobotsRecord:
     ages: Final[Annotated[tuple[float, ...], Wire("age", default=(), sparse=True)]]
 
     # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
-    WIRE: ClassVar[tuple[str, ...]] = ("tick:int", "twist:vectors", "age:floats?")  # fmt: skip
-
     def __init__(self, tick: int, twists: tuple[Vector, ...],
                        ages: tuple[float, ...] = ()) -> None:  # fmt: skip
         self.tick, self.twists, self.ages = tick, twists, ages
@@ -244,3 +226,18 @@ def picklable(*classes: type[Any]) -> None:
 
 
 picklable(Mover, Sensing, AgentState, Command, TickRecord, Event, RobotsRecord)
+
+# Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+WIRE: dict[type[Any], tuple[str, ...]] = {
+    Sensing: ("tick:int", "pos:vector", "oid:ints", "oc:vectors", "or:floats", "aid:ints",
+              "ap:vectors", "mv:movers?", "hd:float?"),
+    AgentState: ("id:int", "tick:int", "pos:vector", "omega:bool", "bid:float", "sigma:float",
+                 "theta:float"),
+    Command: ("id:int", "tick:int", "vel:vector", "flt:bool"),
+    TickRecord: ("tick:int", "pos:vectors", "vel:vectors", "omega:bools", "bid:floats",
+                 "sigma:floats", "theta:floats", "alive:bools", "flt:bools", "mc:vectors?",
+                 "mw:vectors?", "hd:floats?"),
+    Event: ("tick:int", "level:int", "agent:int", "text:str"),
+    RobotsRecord: ("tick:int", "twist:vectors", "age:floats?"),
+}  # fmt: skip
+# End of what is written.
