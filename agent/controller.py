@@ -21,14 +21,13 @@ from typing import Final
 
 from shoal.agent.collision import Evasion, collision_course, evasive_offset, ray_distance
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
-from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import Known, lead, remember, steer
 from shoal.bus.geometry import Vector, VectorLike, norm, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.path import leader_velocity
 from shoal.bus.safety import SafetyFilter
-from shoal.bus.types import AgentConfig, Waypoints, config_problem
+from shoal.bus.types import AgentConfig, Waypoints
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -98,7 +97,6 @@ class Controller:
     """The control laws of one agent, parameterised once by its :class:`AgentConfig`."""
 
     def __init__(self, config: AgentConfig) -> None:
-        _validate(config)
         self.config = config
         self.params = config.params
         self.filtered = self.params.filtered
@@ -428,9 +426,3 @@ class Controller:
             error = evasive_error(error, len(keep), held.offset)
         v = velocity(error, alpha=p.alpha, beta=p.beta, boundary_layer=p.boundary_layer)
         return v, held, lag
-
-
-def _validate(config: AgentConfig) -> None:
-    problem = config_problem(config)
-    if problem is not None:
-        raise ConfigError(*problem)

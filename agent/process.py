@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 from shoal.agent.controller import Controller
 from shoal.agent.delivery import MAX_AGE, AgeStats, Dropper, freshest
-from shoal.agent.errors import ConfigError
 from shoal.agent.latency import Delayer
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
@@ -91,10 +90,7 @@ class AgentNode(Declarations):
         self._held.append(bus.watch(k.alive_world, self.inbox))
         self._await_world()
         config, self.clock = fetch_config(bus, k, options.agent_id, options.start_timeout)
-        try:
-            self.controller = Controller(config)
-        except ConfigError as exc:  # decodes, but no controller can run it (dt ≤ 0, gains ≤ 0)
-            raise AgentAbort(f"agent {options.agent_id}: bad configuration: {exc}") from None
+        self.controller = Controller(config)  # valid: the codec refused any other
         me = options.agent_id
         if options.drop_rate > 0 and self.clock != Clock.REALTIME:
             raise AgentAbort(

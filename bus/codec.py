@@ -17,7 +17,7 @@ from typing import Any, TypeVar
 
 import msgpack
 
-from shoal.bus.errors import DecodeError
+from shoal.bus.errors import ConfigError, DecodeError
 from shoal.bus.fields import table
 from shoal.bus.messages import AgentState, Command, Event, Mover, RobotsRecord, Sensing, TickRecord
 from shoal.bus.types import (
@@ -32,7 +32,6 @@ from shoal.bus.types import (
     Sinusoid,
     Vector,
     Waypoints,
-    config_problem,
 )
 
 SCHEMA = 2  # 2: sensing carries nearby agents; commands and ticks the filter flag; safety params
@@ -300,7 +299,17 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
                 _float(items[2], "config.reshapes"),
             )
         )
-    config = AgentConfig(
+    try:
+        config = _agent_config(m, params, tuple(reshapes))
+    except ConfigError as exc:
+        raise DecodeError(f"config.{exc.field}: {exc.problem}") from None
+    return config, Clock(clock)
+
+
+def _agent_config(
+    m: Mapping[str, Any], params: ControlParams, reshapes: tuple[Reshape, ...]
+) -> AgentConfig:
+    return AgentConfig(
         agent_id=_get(m, "id", _int),
         dim=_get(m, "dim", _int),
         dt=_get(m, "dt", _float),
@@ -311,13 +320,9 @@ def decode_assignment(data: bytes) -> tuple[AgentConfig, Clock]:
         neighbour_offsets=_get(m, "neighbour_offsets", _vectors),
         formation_radius=_get(m, "formation_radius", _float),
         path=_path_from(m.get("path"), "config.path"),
-        reshapes=tuple(reshapes),
+        reshapes=reshapes,
         limits=_limits(m.get("limits", []), "config.limits"),
     )
-    problem = config_problem(config)
-    if problem is not None:
-        raise DecodeError(f"config.{problem[0]}: {problem[1]}")
-    return config, Clock(clock)
 
 
 # -- the messages: each declared once, in bus/messages.py, with its wire form ---------------------

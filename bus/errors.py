@@ -11,6 +11,15 @@ class WireError(BusError, ValueError):
     """Something that cannot go on the wire as asked (a bad run id, an unknown kind)."""
 
 
+class ConfigError(BusError, ValueError):
+    """An agent configuration that the control laws cannot run with, naming its field."""
+
+    def __init__(self, field: str, problem: str) -> None:
+        self.field = field
+        self.problem = problem
+        super().__init__(f"agent config {field}: {problem}")
+
+
 class DecodeError(WireError):
     """A message that is not what its key promises: not msgpack, wrong kind or schema version,
     wrong types, non-finite numbers. Receivers count and drop these."""

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from typing import Any
 
+from shoal.bus.errors import ConfigError
+
 Vector = tuple[float, ...]
 # One side of a unicycle's limits as a polygon of its point's velocities in its body frame
 # (world/limits.py): (n_x, n_y, c, nearest), the polygon n·w ≤ c with n a unit vector; nearest,
@@ -176,6 +178,11 @@ class AgentConfig:
     reshapes: tuple[Reshape, ...] = field(default_factory=tuple)
     limits: tuple[LimitSide, ...] = ()
 
+    def __post_init__(self) -> None:
+        problem = config_problem(self)
+        if problem is not None:
+            raise ConfigError(*problem)
+
     @property
     def is_leader(self) -> bool:
         return self.path is not None
@@ -184,9 +191,9 @@ class AgentConfig:
 def config_problem(c: AgentConfig) -> tuple[str, str] | None:
     """What is wrong with an agent's configuration, as (field, message), or None.
 
-    The one check of an :class:`AgentConfig`: the codec runs it on a configuration from the
-    wire, the controller on whatever it is built with (a scenario the loader accepted makes
-    only configurations that pass)."""
+    The one check of an :class:`AgentConfig`, run once, when one is made (from a scenario, from
+    the wire, by hand): an invalid configuration cannot exist, so nothing that takes one checks
+    it again."""
     if c.dim not in (2, 3):
         return "dim", f"must be 2 or 3, got {c.dim}"
     if not c.dt > 0:

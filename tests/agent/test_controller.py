@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from shoal.agent.controller import Controller, Memory
-from shoal.agent.errors import ConfigError
 from shoal.agent.formation import consensus_error, velocity
+from shoal.bus.errors import ConfigError
 from shoal.bus.messages import AgentState, Sensing
 from shoal.world.loader import scenario_from_dict
 from shoal.world.scenario import REALTIME_TICKS_PER_ROUND, Scenario
@@ -225,14 +225,14 @@ def test_reshape_schedule_sets_scale_and_rotation_from_its_tick() -> None:
     assert c.shape(50, 4.0) == (8.0, 0.3)  # demanded scale times the agreed contraction
 
 
-def test_bad_config_is_refused_with_the_field_named() -> None:
+def test_a_bad_config_cannot_be_made_and_names_its_field() -> None:
     cfg = triangle().agent_config(2)
     from dataclasses import replace
 
     with pytest.raises(ConfigError, match="offset"):
-        Controller(replace(cfg, offset=(1.0, 2.0, 3.0)))
+        replace(cfg, offset=(1.0, 2.0, 3.0))
     with pytest.raises(ConfigError, match=r"params\.rounds"):
-        Controller(replace(cfg, params=replace(cfg.params, rounds=0)))
+        replace(cfg, params=replace(cfg.params, rounds=0))
 
 
 @pytest.mark.parametrize("safety", ["filter", "paper"])
