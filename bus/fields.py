@@ -2,17 +2,18 @@
 
 A field of a message in bus/messages.py is one line, ``name: Final[Annotated[type, Wire(key)]]``:
 its attribute, its type and its key in the msgpack map (docs/wire.md). Two things follow from
-those lines and are written into each class by ``python -m shoal.bus.fields`` (as CPython's
-Argument Clinic writes the boilerplate beside its declarations): its ``__init__``, and
-``WIRE``, the table bus/codec.py builds its encoder and decoder from.
+those lines and are written into bus/messages.py by ``python -m shoal.bus.fields`` (as CPython's
+Argument Clinic writes the boilerplate beside its declarations): each class's ``__init__``, and
+``WIRE``, the table bus/codec.py builds every encoder and decoder from.
 
 Why written out, not made at import (a decorator, or ``dataclass``'s own ``__init__``): mypyc
 compiles only the code it reads, and the messages are made every tick from compiled code. A
 compiled ``__init__`` costs 766 instructions to make an ``AgentState`` from compiled code;
 ``dataclass``'s, made at import and so interpreted, costs 4,356 called positionally and 7,088
-with keywords (callgrind, a probe module compiled as setup.py compiles). A compiled class keeps
-no ``Annotated`` at run time either (its annotations become ``int``, ``tuple``), so the codec
-reads ``WIRE``, not the annotations. tests/bus/test_fields.py fails when what is written is not
+with keywords (callgrind, a probe module compiled by mypyc). A compiled class keeps no
+``Annotated`` at run time either (its annotations become ``int``, ``tuple``), so the codec reads
+``WIRE``, not the annotations; and ``WIRE`` is not a class attribute, which a compiled dataclass
+would take for one more field. tests/bus/test_fields.py fails when what is written is not
 what the declarations give.
 """
 
