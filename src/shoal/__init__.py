@@ -21,7 +21,6 @@ Subpackages: ``shoal.bus`` (wire types, codec, geometry, the safety filter), ``s
 from __future__ import annotations
 
 import os
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -85,7 +84,7 @@ def run(
     replaced unless ``overwrite``. Raises ``FileExistsError``, or ``RuntimeError`` if a process
     of the swarm fails or one dies during the run."""
     from shoal.bus.types import Clock
-    from shoal.tools.procs.launch import RunPlan, launch
+    from shoal.tools.procs.launch import RunPlan, fresh_run_id, launch
     from shoal.tools.procs.swarm import ChildFailed
 
     if clock not in ("lockstep", "realtime"):
@@ -96,14 +95,8 @@ def run(
     if log.exists() and not overwrite:
         raise FileExistsError(f"{log} exists; pass overwrite=True to replace it")
     log.parent.mkdir(parents=True, exist_ok=True)
-    plan = RunPlan(
-        scenario=loaded,
-        out=log,
-        run_id=uuid.uuid4().hex[:8],
-        clock=Clock(clock),
-        start_timeout=start_timeout,
-        overwrite=overwrite,
-    )
+    plan = RunPlan(loaded, log, fresh_run_id(), Clock(clock), start_timeout=start_timeout,
+                   force=overwrite)  # fmt: skip
     try:
         result = launch(plan)
     except ChildFailed as exc:

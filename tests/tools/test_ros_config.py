@@ -5,7 +5,10 @@ robots`` resolve them the same way (the end to end: tests/tools/test_fleet.py)."
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
+from shoal.tools.procs.children import GuardSpec
+from shoal.tools.procs.launch import RunPlan, _ros_options, _world
 from shoal.tools.ros2.config import ros_config
 from shoal.world.loader import load_scenario, parse_scenario
 from shoal.world.scenario import RobotSetup
@@ -41,3 +44,23 @@ def test_the_scenarios_section_names_them_and_the_command_line_wins() -> None:
     partial = dataclasses.replace(scn, robots=RobotSetup(domain=3))
     conf = ros_config(partial, distro="rolling")
     assert conf.namespaces[0] == "/robot1" and (conf.domain, conf.distro) == (3, "rolling")
+
+
+def test_a_resolved_configuration_handed_on_is_taken_as_it_is(tmp_path: Path) -> None:
+    """`shoal run` resolves the robots once; the world and its guard get every value under
+    the option names they read, and the world's own resolution then looks nothing up."""
+    scn = load_scenario("default")
+    ros = ros_config(scn, domain=4, distro="humble", prefix="tb", pose="pose")
+    plan = RunPlan(scenario=scn, out=tmp_path / "x.mcap", run_id="r", ros=ros)
+    world = _world(plan, tmp_path, {"run_id": "r"})
+    assert world.robots == "ros2" and world.ros_prefix is None
+    handed = ros_config(
+        dataclasses.replace(scn, robots=RobotSetup(domain=9, distro="kilted")),
+        connect=world.ros_connect, domain=world.ros_domain, distro=world.ros_distro,
+        prefix=world.ros_prefix, namespaces=world.ros_namespaces, pose=world.ros_pose,
+        pose_timeout=world.pose_timeout,
+    )  # fmt: skip
+    assert handed == ros
+    guard = GuardSpec(**_ros_options(ros, GuardSpec), run_id="r")
+    assert guard.ros_namespaces == ros.namespaces == tuple(f"/tb{i}" for i in range(1, 6))
+    assert (guard.ros_connect, guard.ros_domain, guard.ros_distro) == (ros.connect, 4, "humble")

@@ -46,7 +46,7 @@ def guard(**params: Any) -> None:
     ):
         ros = RosSession(ros_session, spec.ros_domain, spec.ros_distro)
         node = ros.node("shoal_guard")
-        names = list(spec.namespaces)
+        names = list(spec.ros_namespaces)
         stops = [node.publisher(f"{ns}/cmd_vel", rmw.TWIST) for ns in names]
         inbox = Inbox()
         held = watch_presence(session, keys.alive_world, inbox)

@@ -1,10 +1,11 @@
-"""Options shared by the process commands (router, world, agent, logger, run, replay)."""
+"""Options shared by the commands (the process commands, run, replay, and the files they write)."""
 
 from __future__ import annotations
 
 import contextlib
 import warnings
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
@@ -33,6 +34,14 @@ def load_for_cli(name_or_path: str) -> Scenario:
     for w in caught:
         click.echo(f"warning: {w.message}", err=True)
     return scenario
+
+
+def out_file(help: str, *, required: bool = False) -> Callable[[F], F]:
+    """-o/--out: the file a command writes (its folder need not exist yet)."""
+    return click.option(
+        "--out", "-o", type=click.Path(dir_okay=False, path_type=Path), required=required,
+        help=help,
+    )  # fmt: skip
 
 
 def live_options(when: str) -> Callable[[F], F]:

@@ -39,17 +39,17 @@ def scenario_of(spec: WorldSpec) -> Scenario:
 def link_of(spec: WorldSpec, scn: Scenario) -> Link:
     """The robots' radio of ``spec`` in ticks: its wall-clock delays over the wall-clock tick
     (dt / speed; lockstep ticks as fast as the agents answer, and the delays count at speed 1)."""
-    if spec.link_jitter_ms > spec.link_delay_ms:
+    if spec.jitter_ms > spec.delay_ms:
         raise click.BadParameter(
-            f"{spec.link_jitter_ms:g} ms is more than --link-delay-ms {spec.link_delay_ms:g}",
-            param_hint="--link-jitter-ms",
+            f"{spec.jitter_ms:g} ms is more than --delay-ms {spec.delay_ms:g}",
+            param_hint="--jitter-ms",
         )
     tick_ms = scn.dt / spec.speed * 1e3
     return Link(
-        delay=spec.link_delay_ms / tick_ms,
-        jitter=spec.link_jitter_ms / tick_ms,
-        drop_rate=spec.link_drop_rate,
-        seed=spec.link_seed,
+        delay=spec.delay_ms / tick_ms,
+        jitter=spec.jitter_ms / tick_ms,
+        drop_rate=spec.drop_rate,
+        seed=spec.drop_seed,
     )
 
 
@@ -72,9 +72,10 @@ def robots_of(spec: WorldSpec, scn: Scenario) -> Iterator[Plant | None]:
     from shoal.tools.ros2.node import RosSession
     from shoal.tools.ros2.rmw import ODOMETRY, POSE_STAMPED, RmwError
 
-    ros_conf = ros_config(
+    ros_conf = ros_config(  # as given: `shoal run` gives every option, resolved once
         scn, connect=spec.ros_connect, domain=spec.ros_domain, distro=spec.ros_distro,
-        prefix=spec.ros_prefix, pose=spec.ros_pose, pose_timeout=spec.pose_timeout,
+        prefix=spec.ros_prefix, namespaces=spec.ros_namespaces, pose=spec.ros_pose,
+        pose_timeout=spec.pose_timeout,
     )  # fmt: skip
     endpoints = ros_conf.connect
     conf = session_config("client", connect=endpoints, connect_ms=PROMPT_CONNECT_MS)

@@ -13,6 +13,7 @@ import dataclasses
 import enum
 from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field, fields
+from functools import partial
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
@@ -158,6 +159,26 @@ def click_options(spec: type[ChildSpec], only: tuple[str, ...] = ()) -> Callable
 
 _SECURE = click.Path(exists=True, file_okay=False, path_type=Path)
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+_MS = click.FloatRange(min=0.0, max=10_000.0)
+_RATE = click.FloatRange(min=0.0, max=1.0, max_open=True)
+_DOMAIN = click.IntRange(0, 232)  # ROS_DOMAIN_ID
+_DISTRO = click.Choice(list(ROS_DISTROS))
+
+# The options several processes take, each declared once here with its flag, its type and its
+# default; a process's own field adds only its help (what the option means to that process).
+_connect = partial(option, "--connect", "-e", default=(), multiple=True)
+_listen = partial(option, "--listen", "-l", default=(), multiple=True)
+_zenoh_config = partial(option, "--zenoh-config", default=None, type=_FILE)
+_secure = partial(
+    option, "--secure", default=None, type=_SECURE,
+    help="Secured mode: TLS with mutual authentication, passwords and the run's access rules, "
+    "from DIR (made by `shoal certs DIR`; docs/security.md).",
+)  # fmt: skip
+_start_timeout = partial(option, "--start-timeout", default=60.0)
+_jitter_ms = partial(option, "--jitter-ms", default=0.0, type=_MS)
+_ros_connect = partial(option, "--ros-connect", default=(), multiple=True)
+_ros_namespaces = partial(option, "--ros-namespace", default=(), multiple=True)
+_FROM_SCENARIO = "[default: the scenario's robots: section, else {}]"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -165,22 +186,43 @@ class ClientSpec(ChildSpec):
     """The options of a process that joins a run as a client of its router."""
 
     run_id: str = option("--run", callback=check_run_id, help="The run id every key lives under.")
-    connect: tuple[str, ...] = option(
-        "--connect", "-e", default=(), multiple=True,
-        help="Zenoh endpoint of the router, e.g. tcp/127.0.0.1:7447 (repeatable).",
-    )  # fmt: skip
-    zenoh_config: Path | None = option(
-        "--zenoh-config", default=None, type=_FILE,
-        help="A Zenoh JSON5 config file (ZENOH_CONFIG is honoured too).",
-    )  # fmt: skip
+    connect: tuple[str, ...] = _connect(
+        help="Zenoh endpoint of the router, e.g. tcp/127.0.0.1:7447 (repeatable)."
+    )
+    zenoh_config: Path | None = _zenoh_config(
+        help="A Zenoh JSON5 config file (ZENOH_CONFIG is honoured too)."
+    )
     multicast: bool = option(
         "--multicast", default=False, is_flag=True,
         help="Allow Zenoh multicast scouting (off by default).",
     )  # fmt: skip
-    secure: Path | None = option(
-        "--secure", default=None, type=_SECURE,
-        help="Secured mode: TLS with this run's certificates, a password and the router's "
-        "access rules, from DIR (made by `shoal certs DIR`; docs/security.md).",
+    secure: Path | None = _secure()
+
+
+@dataclass(frozen=True, kw_only=True)
+class FaultSpec(ClientSpec):
+    """The faults a run injects into its network, the same for the agents (their states and
+    commands) and the world (the robots' radio, with onboard safety layers): one name from
+    ``shoal run`` to both."""
+
+    delay_ms: float = option(
+        "--delay-ms", default=0.0, type=_MS,
+        help="Fault injection: hold every message back this many ms, an agent's states and "
+        "commands and (onboard) the robots' position broadcasts (a lockstep run only waits "
+        "longer and stays exact; in realtime they arrive late).",
+    )  # fmt: skip
+    jitter_ms: float = _jitter_ms(
+        help="Fault injection: … plus or minus up to this many ms, uniform (at most --delay-ms)."
+    )
+    drop_rate: float = option(
+        "--drop-rate", default=0.0, type=_RATE, envvar="SHOAL_DROP_RATE",
+        help="Fault injection, realtime only: lose this fraction of what is heard, an agent's "
+        "neighbour states and (onboard) the robots' position broadcasts (seeded, counted; shoal "
+        "run totals the agents' in its summary, `injected_drops`).",
+    )  # fmt: skip
+    drop_seed: int = option(
+        "--drop-seed", default=0, envvar="SHOAL_DROP_SEED",
+        help="Seed of the injected drops and delays.",
     )  # fmt: skip
 
 
@@ -189,29 +231,19 @@ class RouterSpec(ChildSpec):
     """``shoal router``: a Zenoh router (zenoh-python in router mode)."""
 
     command: ClassVar[str] = "router"
-    listen: tuple[str, ...] = option(
-        "--listen", "-l", default=(), multiple=True,
+    listen: tuple[str, ...] = _listen(
         help="Endpoint to listen on (repeatable) [default: tcp/127.0.0.1:7447; with --secure, "
-        "tls/127.0.0.1:7447].",
-    )  # fmt: skip
-    connect: tuple[str, ...] = option(
-        "--connect", "-e", default=(), multiple=True,
-        help="Another router to mesh with (repeatable).",
-    )  # fmt: skip
-    zenoh_config: Path | None = option(
-        "--zenoh-config", default=None, type=_FILE, help="A Zenoh JSON5 config file."
+        "tls/127.0.0.1:7447]."
     )
+    connect: tuple[str, ...] = _connect(help="Another router to mesh with (repeatable).")
+    zenoh_config: Path | None = _zenoh_config(help="A Zenoh JSON5 config file.")
     exit_after_run: str | None = option(
         "--exit-after-run", default=None, metavar="RUN", callback=check_run_id,
         help="Exit 0 once run RUN is over: its world came and went and every process of the "
         "run has left (one-shot deployments such as docker compose, where the router must end "
         "too).",
     )  # fmt: skip
-    secure: Path | None = option(
-        "--secure", default=None, type=_SECURE,
-        help="Secured mode: TLS with mutual authentication, the users' passwords and the run's "
-        "access rules, all from DIR (made by `shoal certs DIR`; docs/security.md).",
-    )  # fmt: skip
+    secure: Path | None = _secure()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -225,42 +257,10 @@ class LoggerSpec(ClientSpec):
     force: bool = option("--force", default=False, is_flag=True, help="Overwrite OUT if it exists.")
 
 
-_FROM_SCENARIO = "[default: the scenario's robots: section, else {}]"
-
-
-def _ros_connect() -> Any:
-    return option(
-        "--ros-connect", default=(), multiple=True,
-        help="--robots ros2: the ROS 2 router (rmw_zenohd, or `shoal robots --listen`) "
-        + _FROM_SCENARIO.format("tcp/127.0.0.1:7447"),
-    )  # fmt: skip
-
-
-def _ros_domain() -> Any:
-    return option(
-        "--ros-domain", default=None, type=click.IntRange(0, 232),
-        help="--robots ros2: domain id " + _FROM_SCENARIO.format(0),
-    )  # fmt: skip
-
-
-def _ros_distro() -> Any:
-    return option(
-        "--ros-distro", default=None, type=click.Choice(list(ROS_DISTROS)),
-        help="--robots ros2: the robots' ROS 2 distribution " + _FROM_SCENARIO.format("jazzy"),
-    )  # fmt: skip
-
-
-def _ros_prefix() -> Any:
-    return option(
-        "--ros-prefix", default=None,
-        help="--robots ros2: agent i's robot is /<prefix><i> [default: the scenario's robots: "
-        "namespaces, else /robot<i>].",
-    )  # fmt: skip
-
-
 @dataclass(frozen=True, kw_only=True)
-class WorldSpec(ClientSpec):
-    """``shoal world``: the world process of a run."""
+class WorldSpec(FaultSpec):
+    """``shoal world``: the world process of a run. Its ``--ros-*`` options, when given, are
+    taken as they are; ``shoal run`` gives all of them, resolved once (tools/ros2/config.py)."""
 
     command: ClassVar[str] = "world"
     scenario: str = argument(default="default")
@@ -289,36 +289,38 @@ class WorldSpec(ClientSpec):
         "none: commands applied as sent. Without referee the summary counts what one would "
         "have changed. [default: onboard in realtime, referee in lockstep]",
     )  # fmt: skip
-    link_delay_ms: float = option(
-        "--link-delay-ms", default=0.0, type=click.FloatRange(min=0.0),
-        help="onboard: the robots' radio delivers each position this late (ms, wall clock)…",
-    )  # fmt: skip
-    link_jitter_ms: float = option(
-        "--link-jitter-ms", default=0.0, type=click.FloatRange(min=0.0),
-        help="… ± this (ms, uniform; at most the delay).",
-    )  # fmt: skip
-    link_drop_rate: float = option(
-        "--link-drop-rate", default=0.0, type=click.FloatRange(min=0.0, max=1.0, max_open=True),
-        help="onboard: the fraction of the robots' position broadcasts lost (seeded).",
-    )  # fmt: skip
-    link_seed: int = option("--link-seed", default=0, help="Seed of the radio's delays and losses.")
     layer_epoch: float = option(
         "--layer-epoch", default=0.1, type=click.FloatRange(min=0.0, min_open=True),
         help="onboard: seconds of simulated time between the robots' common snapshots.",
     )  # fmt: skip
-    start_timeout: float = option(
-        "--start-timeout", default=60.0, help="Seconds to wait for every agent."
-    )
+    start_timeout: float = _start_timeout(help="Seconds to wait for every agent.")
     robots: str = option(
         "--robots", default="simulated", type=click.Choice(["simulated", "ros2"]),
         help="simulated: the world integrates the robots' kinematics; ros2: it drives ROS 2 "
         "robots over rmw_zenoh instead (realtime, speed 1; docs/ros2.md): agent i's pose from "
         "/<prefix><i>/odom, its command as a Twist on /<prefix><i>/cmd_vel.",
     )  # fmt: skip
-    ros_connect: tuple[str, ...] = _ros_connect()
-    ros_domain: int | None = _ros_domain()
-    ros_distro: str | None = _ros_distro()
-    ros_prefix: str | None = _ros_prefix()
+    ros_connect: tuple[str, ...] = _ros_connect(
+        help="--robots ros2: the ROS 2 router (rmw_zenohd, or `shoal robots --listen`) "
+        + _FROM_SCENARIO.format("tcp/127.0.0.1:7447")
+    )
+    ros_domain: int | None = option(
+        "--ros-domain", default=None, type=_DOMAIN,
+        help="--robots ros2: domain id " + _FROM_SCENARIO.format(0),
+    )  # fmt: skip
+    ros_distro: str | None = option(
+        "--ros-distro", default=None, type=_DISTRO,
+        help="--robots ros2: the robots' ROS 2 distribution " + _FROM_SCENARIO.format("jazzy"),
+    )  # fmt: skip
+    ros_prefix: str | None = option(
+        "--ros-prefix", default=None,
+        help="--robots ros2: agent i's robot is /<prefix><i> [default: the scenario's robots: "
+        "namespaces, else /robot<i>].",
+    )  # fmt: skip
+    ros_namespaces: tuple[str, ...] = _ros_namespaces(
+        help="--robots ros2: agent i's robot, by its namespace (/robot1), in agent order; "
+        "repeat for each (in place of --ros-prefix)."
+    )
     ros_pose: str | None = option(
         "--ros-pose", default=None, type=click.Choice(list(ROS_POSES)),
         help="--robots ros2: odom, nav_msgs/msg/Odometry on /<ns>/odom; pose, a motion "
@@ -336,33 +338,12 @@ ROBOT_OPTIONS = ("robots", "ros_connect", "ros_domain", "ros_distro", "ros_prefi
 
 
 @dataclass(frozen=True, kw_only=True)
-class AgentSpec(ClientSpec):
+class AgentSpec(FaultSpec):
     """``shoal agent``: one agent process."""
 
     command: ClassVar[str] = "agent"
     agent_id: int = option("--id", identity=True, type=click.IntRange(min=1), help="Agent id.")
-    start_timeout: float = option(
-        "--start-timeout", default=60.0, help="Seconds to wait for the world."
-    )
-    drop_rate: float = option(
-        "--drop-rate", default=0.0, type=click.FloatRange(min=0.0, max=1.0, max_open=True),
-        envvar="SHOAL_DROP_RATE",
-        help="Fault injection, realtime only: throw away this fraction of incoming neighbour "
-        "states (seeded, counted; shoal run totals them in its summary, `injected_drops`).",
-    )  # fmt: skip
-    drop_seed: int = option(
-        "--drop-seed", default=0, envvar="SHOAL_DROP_SEED",
-        help="Seed of the injected drops and delays.",
-    )  # fmt: skip
-    delay_ms: float = option(
-        "--delay-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
-        help="Fault injection: hold every outgoing state and command back this many ms (a "
-        "lockstep run only waits longer and stays exact; in realtime commands arrive late).",
-    )  # fmt: skip
-    jitter_ms: float = option(
-        "--jitter-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
-        help="Fault injection: … plus or minus up to this many ms, uniform (at most --delay-ms).",
-    )  # fmt: skip
+    start_timeout: float = _start_timeout(help="Seconds to wait for the world.")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -375,21 +356,19 @@ class RobotsSpec(ChildSpec):
         "--count", "-n", default=None, type=click.IntRange(min=1),
         help="Robots to start: agents 1–N of SCENARIO [default: all of them].",
     )  # fmt: skip
-    connect: tuple[str, ...] = option(
-        "--connect", "-e", default=(), multiple=True,
+    connect: tuple[str, ...] = _connect(
         help="Router to join as a client, as rmw_zenoh's nodes do [default: "
-        "tcp/127.0.0.1:7447, rmw_zenohd's].",
-    )  # fmt: skip
-    listen: tuple[str, ...] = option(
-        "--listen", "-l", default=(), multiple=True,
-        help="Be the router instead, listening here (no rmw_zenohd needed).",
-    )  # fmt: skip
+        "tcp/127.0.0.1:7447, rmw_zenohd's]."
+    )
+    listen: tuple[str, ...] = _listen(
+        help="Be the router instead, listening here (no rmw_zenohd needed)."
+    )
     domain: int | None = option(
-        "--domain", default=None, type=click.IntRange(0, 232), envvar="ROS_DOMAIN_ID",
+        "--domain", default=None, type=_DOMAIN, envvar="ROS_DOMAIN_ID",
         help="ROS 2 domain id " + _FROM_SCENARIO.format(0),
     )  # fmt: skip
     distro: str | None = option(
-        "--distro", default=None, type=click.Choice(list(ROS_DISTROS)),
+        "--distro", default=None, type=_DISTRO,
         help="ROS 2 distribution the robots run (Humble's keys carry no type hash) "
         + _FROM_SCENARIO.format("jazzy"),
     )  # fmt: skip
@@ -403,13 +382,12 @@ class RobotsSpec(ChildSpec):
         help="Odometry messages per second per robot.",
     )  # fmt: skip
     latency_ms: float = option(
-        "--latency-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
+        "--latency-ms", default=0.0, type=_MS,
         help="Hold every odometry message back this many ms (a slow link).",
     )  # fmt: skip
-    jitter_ms: float = option(
-        "--jitter-ms", default=0.0, type=click.FloatRange(min=0.0, max=10_000.0),
-        help="… plus or minus up to this many ms, uniform (at most --latency-ms).",
-    )  # fmt: skip
+    jitter_ms: float = _jitter_ms(
+        help="… plus or minus up to this many ms, uniform (at most --latency-ms)."
+    )
     cmd_timeout: float = option(
         "--cmd-timeout", default=0.5, type=click.FloatRange(min=0.01, max=60.0),
         help="Seconds without a cmd_vel after which a robot stops, as a real driver does.",
@@ -419,21 +397,17 @@ class RobotsSpec(ChildSpec):
 
 @dataclass(frozen=True, kw_only=True)
 class GuardSpec(ClientSpec):
-    """``shoal guard``: stops run RUN's ROS 2 robots if its world goes away."""
+    """``shoal guard``: stops run RUN's ROS 2 robots if its world goes away. ``shoal run``
+    gives it the robots the world drives, under the world's own option names."""
 
     command: ClassVar[str] = "guard"
-    namespaces: tuple[str, ...] = option(
-        "--namespace", multiple=True, required=True,
-        help="A robot to stop, by its namespace (/robot1); repeat for each.",
-    )  # fmt: skip
-    ros_connect: tuple[str, ...] = option(
-        "--ros-connect", default=(), multiple=True,
-        help="The ROS 2 router [default: tcp/127.0.0.1:7447].",
-    )  # fmt: skip
-    ros_domain: int = option(
-        "--ros-domain", default=0, type=click.IntRange(0, 232), help="Domain id."
+    ros_namespaces: tuple[str, ...] = _ros_namespaces(
+        required=True, help="A robot to stop, by its namespace (/robot1); repeat for each."
     )
+    ros_connect: tuple[str, ...] = _ros_connect(
+        help="The ROS 2 router [default: tcp/127.0.0.1:7447]."
+    )
+    ros_domain: int = option("--ros-domain", default=0, type=_DOMAIN, help="Domain id.")
     ros_distro: str = option(
-        "--ros-distro", default="jazzy", type=click.Choice(list(ROS_DISTROS)),
-        help="The robots' ROS 2 distribution.",
-    )  # fmt: skip
+        "--ros-distro", default="jazzy", type=_DISTRO, help="The robots' ROS 2 distribution."
+    )

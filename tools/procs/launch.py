@@ -11,8 +11,9 @@ import os
 import socket
 import sys
 import time
+import uuid
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,12 +23,13 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.report import reports_in
-from shoal.bus.runtime import ArrivalKind, Inbox, warn
+from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.certs import make_material
 from shoal.tools.log.replay import TickSink
 from shoal.tools.procs.children import (
     AgentSpec,
+    ChildSpec,
     GuardSpec,
     LoggerSpec,
     RouterSpec,
@@ -37,7 +39,7 @@ from shoal.tools.procs.cpu import CpuWindow, swarm_processes
 from shoal.tools.procs.session import PROMPT_CONNECT_MS, client_config, open_session
 from shoal.tools.procs.swarm import ChildFailed, Swarm
 from shoal.tools.progress import progress_bar
-from shoal.tools.ros2.config import ros_config
+from shoal.tools.ros2.config import RosConfig
 from shoal.world.scenario import Scenario
 
 
@@ -49,6 +51,11 @@ def _hand_over(scenario: Scenario, folder: Path) -> Path:
     return path
 
 
+def fresh_run_id() -> str:
+    """A run id nobody has used: 8 random hex digits."""
+    return uuid.uuid4().hex[:8]
+
+
 def free_port() -> int:
     """A TCP port on 127.0.0.1 that nobody listens on right now."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
@@ -58,8 +65,10 @@ def free_port() -> int:
 
 @dataclass(frozen=True)
 class RunPlan:
-    """What to run and how. ``scenario`` is parsed once, by the caller: the world is handed
-    its text, written into the run's folder, never the file it came from (which may change)."""
+    """What to run and how, every fact resolved once, by the caller: ``scenario`` parsed (the
+    world is handed its text, written into the run's folder, never the file it came from,
+    which may change) and ``ros``, the ROS 2 robots the world drives and its guard stops. The
+    fields keep the names of the options they come from and go to (tools/procs/children.py)."""
 
     scenario: Scenario
     out: Path
@@ -71,17 +80,23 @@ class RunPlan:
     connect: str | None = None  # a router's endpoint; None starts one
     start_timeout: float = 60.0
     progress: bool = False
-    drop_rate: float = 0.0  # fault injection: passed to every agent (realtime only)
+    drop_rate: float = 0.0  # fault injection, for the agents and the world (FaultSpec)
     drop_seed: int = 0
-    delay_ms: float = 0.0  # fault injection: every agent's outgoing messages held back …
-    jitter_ms: float = 0.0  # … ± this (agent/latency.py)
+    delay_ms: float = 0.0
+    jitter_ms: float = 0.0
     secure: bool = False  # TLS, passwords and the router's ACL (docs/security.md)
     secure_dir: Path | None = None  # their material; None makes a fresh one in the run folder
     measure_cpu: bool = (
         False  # account each process's CPU per tick (tools/procs/cpu.py; the benchmark)
     )
-    overwrite: bool = False  # the logger may replace an existing ``out``
-    robots: Mapping[str, Any] = field(default_factory=dict)  # the world's ROBOT_OPTIONS
+    force: bool = False  # the logger may replace an existing ``out``
+    ros: RosConfig | None = None  # ROS 2 robots (tools/ros2/config.py); None: simulated ones
+
+    @property
+    def faults(self) -> dict[str, Any]:
+        """The injected faults, as the agents' and the world's options."""
+        return {"delay_ms": self.delay_ms, "jitter_ms": self.jitter_ms,
+                "drop_rate": self.drop_rate, "drop_seed": self.drop_seed}  # fmt: skip
 
     @property
     def agents(self) -> int:
@@ -117,44 +132,19 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
         if plan.secure and plan.secure_dir is None:  # removed with the run folder at the end
             made = make_material(swarm.log_dir / "secure", run=plan.run_id, agents=plan.agents)
             plan = replace(plan, secure_dir=made.root)
-        scheme = "tls" if plan.secure_dir else "tcp"
-        endpoint = plan.connect or f"{scheme}/127.0.0.1:{free_port()}"
-        if plan.connect is not None:
-            _probe(endpoint, plan)
-        if plan.connect is None:
-            routing = RouterSpec(listen=(endpoint,), secure=plan.secure_dir)
-            router = swarm.spawn("router", "router", routing.argv(), ready_pipe=True)
-            swarm.wait_ready(router, plan.start_timeout)
+        endpoint = _router(swarm, plan)
         common: dict[str, Any] = {
             "run_id": plan.run_id, "connect": (endpoint,), "secure": plan.secure_dir
         }  # fmt: skip
-        logging = LoggerSpec(out=plan.out, force=plan.overwrite, **common)
+        logging = LoggerSpec(out=plan.out, force=plan.force, **common)
         logger = swarm.spawn("logger", "logger", logging.argv(), ready_pipe=True)
-        handed = _hand_over(plan.scenario, swarm.log_dir)
-        world = WorldSpec(
-            scenario=str(handed), name=plan.scenario.name, expect=("logger", "monitor"),
-            clock=plan.clock, speed=plan.speed, safety_layer=plan.safety_layer,
-            link_delay_ms=plan.delay_ms, link_jitter_ms=plan.jitter_ms,
-            link_drop_rate=plan.drop_rate, link_seed=plan.drop_seed, layer_epoch=plan.layer_epoch,
-            start_timeout=plan.start_timeout, **plan.robots, **common,
-        )  # fmt: skip
-        if world.robots == "ros2":  # stops the robots if the world dies without doing so
-            ros = ros_config(  # the robots the world will drive, as it resolves them
-                plan.scenario, connect=world.ros_connect, domain=world.ros_domain,
-                distro=world.ros_distro, prefix=world.ros_prefix,
-            )  # fmt: skip
-            guarding = GuardSpec(
-                namespaces=ros.namespaces, ros_connect=ros.connect, ros_domain=ros.domain,
-                ros_distro=ros.distro, **common,
-            )  # fmt: skip
+        if plan.ros is not None:  # stops the robots if the world dies without doing so
+            guarding = GuardSpec(**_ros_options(plan.ros, GuardSpec), **common)
             guard = swarm.spawn("guard", "guard", guarding.argv(), ready_pipe=True)
             swarm.wait_ready(guard, plan.start_timeout)
-        swarm.spawn("world", "world", world.argv())
+        swarm.spawn("world", "world", _world(plan, swarm.log_dir, common).argv())
         for i in range(1, plan.agents + 1):
-            agent = AgentSpec(
-                agent_id=i, drop_rate=plan.drop_rate, drop_seed=plan.drop_seed,
-                delay_ms=plan.delay_ms, jitter_ms=plan.jitter_ms, **common,
-            )  # fmt: skip
+            agent = AgentSpec(agent_id=i, **plan.faults, **common)
             swarm.spawn(f"agent {i}", "agent", agent.argv())
         swarm.wait_ready(logger, plan.start_timeout)
         lost: list[str] = []
@@ -172,6 +162,41 @@ def launch(plan: RunPlan, sink: TickSink | None = None) -> RunResult:
         processes = len(swarm.children)
         cpu = window.figures if window is not None else {}
         return RunResult(summary, startup, wall, rss, tuple(lost), reports, processes, cpu)
+
+
+def _router(swarm: Swarm, plan: RunPlan) -> str:
+    """The endpoint of the run's router: ``plan.connect``'s, once it answers, or that of a
+    router started here."""
+    if plan.connect is not None:
+        _probe(plan.connect, plan)
+        return plan.connect
+    scheme = "tls" if plan.secure_dir else "tcp"
+    endpoint = f"{scheme}/127.0.0.1:{free_port()}"
+    routing = RouterSpec(listen=(endpoint,), secure=plan.secure_dir)
+    router = swarm.spawn("router", "router", routing.argv(), ready_pipe=True)
+    swarm.wait_ready(router, plan.start_timeout)
+    return endpoint
+
+
+def _world(plan: RunPlan, folder: Path, common: Mapping[str, Any]) -> WorldSpec:
+    """The world's options: the scenario's text handed over in ``folder``, and with ROS 2
+    robots every ``--ros-*`` option as ``plan.ros`` resolved it (the world looks nothing up)."""
+    robots = {} if plan.ros is None else {"robots": "ros2", **_ros_options(plan.ros, WorldSpec)}
+    return WorldSpec(
+        scenario=str(_hand_over(plan.scenario, folder)), name=plan.scenario.name,
+        expect=("logger", "monitor"), clock=plan.clock, speed=plan.speed,
+        safety_layer=plan.safety_layer, layer_epoch=plan.layer_epoch,
+        start_timeout=plan.start_timeout, **plan.faults, **robots, **common,
+    )  # fmt: skip
+
+
+def _ros_options(ros: RosConfig, spec: type[ChildSpec]) -> dict[str, Any]:
+    """``ros`` as the options of ``spec`` (the world's or the guard's) that say it."""
+    given = {"ros_namespaces": ros.namespaces, "ros_connect": ros.connect,
+             "ros_domain": ros.domain, "ros_distro": ros.distro, "ros_pose": ros.pose,
+             "pose_timeout": ros.pose_timeout}  # fmt: skip
+    taken = {f.name for f in fields(spec)}
+    return {name: value for name, value in given.items() if name in taken}
 
 
 def _probe(endpoint: str, plan: RunPlan) -> None:
@@ -205,9 +230,6 @@ def _monitor(
     ``window`` is opened at the first tick record and closed at the last one. A ``sink`` gets
     every tick record and world event (the latter subscribed to only for it)."""
     inbox = Inbox()
-    records = 0
-    agents_up: set[str] = set()
-    startup = float("nan")
     conf = client_config((endpoint,), secure=plan.secure_dir, name=MONITOR)
     with open_session(conf, "shoal run") as session:
         held = [
@@ -220,52 +242,95 @@ def _monitor(
         counted = None if sink is None else _Counted(sink)
         show = plan.progress and sys.stderr.isatty()
         with progress_bar(plan.steps, "simulated time", show=show) as bar:
-            checked = 0.0
-            while True:
-                if time.monotonic() - checked >= 0.2:  # not once per tick: 0.2 s is soon enough
-                    _note_lost_agents(swarm, lost)
-                    try:
-                        swarm.check()
-                    except ChildFailed:
-                        late = _late_summary(inbox, keys, within=2.0, sink=counted)
-                        if late is None:
-                            raise
-                        summary = late
-                        break
-                    checked = time.monotonic()
-                arrival = inbox.get(timeout=0.2)
-                if arrival is None:
-                    continue
-                if arrival.kind == ArrivalKind.UP:
-                    agents_up.add(arrival.key)
-                    if len(agents_up) == plan.agents:
-                        startup = round(time.monotonic() - began, 3)
-                    continue
-                if arrival.kind != ArrivalKind.DATA:
-                    continue
-                try:
-                    if arrival.key == keys.summary:
-                        summary = codec.decode_document("summary", arrival.payload)
-                        break
-                    if counted is not None:
-                        if arrival.key == keys.event:
-                            counted.event(arrival.time_ns, arrival.payload)
-                            continue
-                        counted.tick(arrival.time_ns, arrival.payload)
-                    records += 1
-                    if window is not None and records == 1:
-                        window.open()
-                    elif window is not None and records == plan.steps:
-                        window.close(plan.steps - 1)
-                    if show:  # a hidden bar needs no tick number: skip decoding every record
-                        tick = codec.decode_tick(arrival.payload).tick
-                        bar.update(tick + 1 - bar.pos)
-                except DecodeError:
-                    continue  # a stranger's garbage on our keys does not stop the run
+            follow = _Following(keys, plan, began, window, counted, bar if show else None)
+            summary = _until_summary(swarm, inbox, lost, follow)
         if counted is not None:
             _trailing_events(inbox, keys, counted, summary.get("events"), within=2.0)
         del held, token
-    return summary, startup
+    return summary, follow.startup
+
+
+def _until_summary(
+    swarm: Swarm, inbox: Inbox, lost: list[str], follow: _Following
+) -> dict[str, Any]:
+    """The world's summary, once it arrives; meanwhile every arrival goes to ``follow`` and
+    the children are looked at every 0.2 s (not once per tick: that is soon enough)."""
+    checked = 0.0
+    while True:
+        if time.monotonic() - checked >= 0.2:
+            late = _check_children(swarm, inbox, lost, follow)
+            if late is not None:
+                return late
+            checked = time.monotonic()
+        arrival = inbox.get(timeout=0.2)
+        if arrival is None:
+            continue
+        if arrival.kind == ArrivalKind.UP:
+            follow.agent_up(arrival.key)
+            continue
+        if arrival.kind != ArrivalKind.DATA:
+            continue
+        try:
+            if arrival.key == follow.keys.summary:
+                return codec.decode_document("summary", arrival.payload)
+            follow.data(arrival)
+        except DecodeError:
+            continue  # a stranger's garbage on our keys does not stop the run
+
+
+def _check_children(
+    swarm: Swarm, inbox: Inbox, lost: list[str], follow: _Following
+) -> dict[str, Any] | None:
+    """None while the run goes on (an agent that died is noted in ``lost``); the world's
+    summary if a child's exit came with it (the world exits right after publishing it);
+    else ChildFailed."""
+    _note_lost_agents(swarm, lost)
+    try:
+        swarm.check()
+    except ChildFailed:
+        late = _late_summary(inbox, follow.keys, within=2.0, sink=follow.sink)
+        if late is None:
+            raise
+        return late
+    return None
+
+
+@dataclass
+class _Following:
+    """What the monitor keeps of a run until its summary: when every agent was up, and the
+    tick records, counted for the CPU ``window``, handed to the ``sink`` (with the world's
+    events) and shown on the ``bar`` (None: no bar, and no record decoded for it)."""
+
+    keys: Keys
+    plan: RunPlan
+    began: float
+    window: CpuWindow | None
+    sink: _Counted | None
+    bar: Any | None
+    records: int = 0
+    agents_up: set[str] = field(default_factory=set)
+    startup: float = float("nan")  # s from ``began`` until every agent's token was up
+
+    def agent_up(self, key: str) -> None:
+        self.agents_up.add(key)
+        if len(self.agents_up) == self.plan.agents:
+            self.startup = round(time.monotonic() - self.began, 3)
+
+    def data(self, arrival: Arrival) -> None:
+        """A tick record or (with a sink) a world event; DecodeError if it is garbage."""
+        if self.sink is not None:
+            if arrival.key == self.keys.event:
+                self.sink.event(arrival.time_ns, arrival.payload)
+                return
+            self.sink.tick(arrival.time_ns, arrival.payload)
+        self.records += 1
+        if self.window is not None and self.records == 1:
+            self.window.open()
+        elif self.window is not None and self.records == self.plan.steps:
+            self.window.close(self.plan.steps - 1)
+        if self.bar is not None:
+            tick = codec.decode_tick(arrival.payload).tick
+            self.bar.update(tick + 1 - self.bar.pos)
 
 
 @dataclass

@@ -35,16 +35,21 @@ def ros_config(
     domain: int | None = None,
     distro: str | None = None,
     prefix: str | None = None,
+    namespaces: tuple[str, ...] = (),
     pose: str | None = None,
     pose_timeout: float | None = None,
 ) -> RosConfig:
     """The robots of ``scn``'s agents: each argument given (not None, not empty) wins over the
     scenario's ``robots:`` section, which wins over the defaults (/robot<i>, rmw_zenohd on
     this machine, domain 0, Jazzy, odometry, 0.5 s). ``prefix`` names agent i's robot
-    /<prefix><i>, in place of the section's namespaces."""
+    /<prefix><i>, in place of the section's namespaces; ``namespaces`` names each (a
+    configuration resolved already, handed on: every argument given, nothing is looked up)."""
     section = scn.robots or RobotSetup()
-    names = section.namespaces
-    if prefix is not None or names is None:
+    if namespaces:
+        names = namespaces
+    elif prefix is None and section.namespaces is not None:
+        names = section.namespaces
+    else:
         names = tuple(f"/{prefix or DEFAULT_PREFIX}{i}" for i in range(1, scn.n + 1))
     return RosConfig(
         namespaces=names,
