@@ -16,8 +16,26 @@ def _fmt(value: Any, unit: str = "", digits: int = 3) -> str:
     return f"{value}{unit}"
 
 
+Row = tuple[str, str]  # a figure's name and its text
+
+
 def render_summary(summary: dict[str, Any]) -> str:
     """A short, aligned, human-readable block of the figures that matter."""
+    rows = [*_outcome(summary), *_safety(summary)]
+    optional = (("clock", _clock), ("safety layer", _layer), ("robots", _robots),
+                ("agents' reports", _reports))  # fmt: skip
+    for name, text_of in optional:
+        text = text_of(summary)
+        if text is not None:
+            rows.append((name, text))
+    rows += _endings(summary)
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def _outcome(summary: dict[str, Any]) -> list[Row]:
+    """What happened: collisions and clearances, the theorem's margins, convergence and
+    arrival, σ and Ω (a figure an older shoal's summary lacks is left out)."""
     bound = summary["convergence_bound"]  # None (JSON's inf): β ≤ the leader's speed
     if bound is not None and not math.isfinite(bound):
         bound = None
@@ -29,45 +47,46 @@ def render_summary(summary: dict[str, Any]) -> str:
         ),
         ("collisions", _fmt(summary["collisions"])),
         ("min clearance", _fmt(summary["min_clearance"], " m")),
-        ("min inter-agent distance", _fmt(summary["min_interagent_distance"], " m")),
-        ("convergence", _convergence(summary, bound)),
-        ("final formation error", _fmt(summary["final_formation_error"], " m")),
-        ("agreed σ", _sigma(summary)),
-        ("Ω episodes", _fmt(summary["omega_episodes"])),
     ]
-    if summary.get("separation_margin") is not None:  # an older shoal's summary has none
-        rows.insert(4, ("margins", _margins(summary)))
-    if summary.get("arrived") is not None:
-        rows.insert(rows.index(next(r for r in rows if r[0] == "convergence")) + 1,
-                    ("arrival", _arrival(summary)))  # fmt: skip
-    if summary.get("livelocks"):
-        rows.append(
-            (
-                "livelocks",
-                f"{summary['livelocks']} (longest {_fmt(summary['longest_livelock'], ' s', 2)})",
-            )
-        )
     if summary.get("min_mover_clearance") is not None:  # a run with moving obstacles
-        rows.insert(
-            3,
+        rows.append(
             (
                 "moving obstacles",
                 f"min clearance {_fmt(summary['min_mover_clearance'], ' m')}, contacts: "
                 f"{_fmt(summary.get('agent_at_fault', 0))} agent at fault, "
                 f"{_fmt(summary.get('obstacle_at_fault', 0))} obstacle at fault",
-            ),
+            )
         )
-    if summary.get("safety", "filter") == "filter":
-        rows.append(
+    rows.append(("min inter-agent distance", _fmt(summary["min_interagent_distance"], " m")))
+    if summary.get("separation_margin") is not None:  # an older shoal's summary has none
+        rows.append(("margins", _margins(summary)))
+    rows.append(("convergence", _convergence(summary, bound)))
+    if summary.get("arrived") is not None:
+        rows.append(("arrival", _arrival(summary)))
+    rows += [
+        ("final formation error", _fmt(summary["final_formation_error"], " m")),
+        ("agreed σ", _sigma(summary)),
+        ("Ω episodes", _fmt(summary["omega_episodes"])),
+    ]
+    if summary.get("livelocks"):
+        longest = _fmt(summary["longest_livelock"], " s", 2)
+        rows.append(("livelocks", f"{summary['livelocks']} (longest {longest})"))
+    return rows
+
+
+def _safety(summary: dict[str, Any]) -> list[Row]:
+    """The safety filter's activity, and the speed limit where the robots reached it."""
+    if summary.get("safety", "filter") != "filter":
+        rows = [("safety filter", "off (safety: paper, Algorithm 2 alone)")]
+    else:
+        rows = [
             (
                 "safety filter",
                 f"active {100 * summary.get('filter_activity', 0.0):.2f} % of agent-ticks, "
                 f"stalls {_fmt(summary.get('stalls'))} "
                 f"(longest {_fmt(summary.get('longest_stall'), ' s', 2)})",
             )
-        )
-    else:
-        rows.append(("safety filter", "off (safety: paper, Algorithm 2 alone)"))
+        ]
     if summary.get("at_speed_limit"):
         rows.append(
             (
@@ -76,16 +95,24 @@ def render_summary(summary: dict[str, Any]) -> str:
                 "point moves slower than the law asks; Theorem 1's bound assumes it never does)",
             )
         )
-    if summary.get("clock") is not None:
-        rows.append(
-            (
-                "clock",
-                f"{summary['clock']}: {_fmt(summary.get('ticks_per_s'), ' ticks/s', 1)}, "
-                f"command latency p50 {_fmt(summary.get('latency_p50_ms'), ' ms', 2)} / "
-                f"p99 {_fmt(summary.get('latency_p99_ms'), ' ms', 2)}, "
-                f"missed deadlines {_fmt(summary.get('missed_deadlines'))}",
-            )
-        )
+    return rows
+
+
+def _clock(summary: dict[str, Any]) -> str | None:
+    """A run's clock: its rate, its commands' latency and the deadlines it missed."""
+    if summary.get("clock") is None:
+        return None
+    return (
+        f"{summary['clock']}: {_fmt(summary.get('ticks_per_s'), ' ticks/s', 1)}, "
+        f"command latency p50 {_fmt(summary.get('latency_p50_ms'), ' ms', 2)} / "
+        f"p99 {_fmt(summary.get('latency_p99_ms'), ' ms', 2)}, "
+        f"missed deadlines {_fmt(summary.get('missed_deadlines'))}"
+    )
+
+
+def _layer(summary: dict[str, Any]) -> str | None:
+    """What stood between the commands and the robots' motion, and what a referee would have
+    changed where there was none."""
     layer = summary.get("safety_layer")
     if layer in ("onboard", "none"):
         would = summary.get("referee_would_correct")
@@ -96,47 +123,49 @@ def render_summary(summary: dict[str, Any]) -> str:
             if layer == "onboard"
             else "none: commands applied as the agents sent them"
         )
-        rows.append(
-            (
-                "safety layer",
-                f"{how}; a referee would have changed {_fmt(would)} (largest change "
-                f"{_fmt(summary.get('referee_largest_change'), ' m/s', 3)})",
-            )
+        largest = _fmt(summary.get("referee_largest_change"), " m/s", 3)
+        return f"{how}; a referee would have changed {_fmt(would)} (largest change {largest})"
+    if summary.get("clock") == "realtime":
+        return (
+            f"referee: the world filtered every command again, and changed "
+            f"{_fmt(summary.get('actuator_corrections'))}"
         )
-    elif summary.get("clock") == "realtime":
-        rows.append(
-            (
-                "safety layer",
-                f"referee: the world filtered every command again, and changed "
-                f"{_fmt(summary.get('actuator_corrections'))}",
-            )
-        )
-    if summary.get("robot_poses") is not None:  # --robots ros2: real (or simulated) robots
-        rows.append(
-            (
-                "robots",
-                f"ROS 2: {_fmt(summary['robot_poses'])} poses heard "
-                f"({_fmt(summary.get('robot_poses_dropped'))} malformed dropped; age when used "
-                f"p99 {_fmt(summary.get('pose_age_p99_ms'), ' ms', 1)}, max "
-                f"{_fmt(summary.get('pose_age_max_ms'), ' ms', 1)}), "
-                f"{_fmt(summary.get('robot_commands'))} Twists sent, "
-                f"{_fmt(summary.get('pose_holds'))} robot-ticks held for a stale pose",
-            )
-        )
+    return None
+
+
+def _robots(summary: dict[str, Any]) -> str | None:
+    """--robots ros2: the poses heard and the commands sent to real (or simulated) robots."""
+    if summary.get("robot_poses") is None:
+        return None
+    return (
+        f"ROS 2: {_fmt(summary['robot_poses'])} poses heard "
+        f"({_fmt(summary.get('robot_poses_dropped'))} malformed dropped; age when used "
+        f"p99 {_fmt(summary.get('pose_age_p99_ms'), ' ms', 1)}, max "
+        f"{_fmt(summary.get('pose_age_max_ms'), ' ms', 1)}), "
+        f"{_fmt(summary.get('robot_commands'))} Twists sent, "
+        f"{_fmt(summary.get('pose_holds'))} robot-ticks held for a stale pose"
+    )
+
+
+def _reports(summary: dict[str, Any]) -> str | None:
+    """The agents' own end-of-run figures (bus/report.py): memory and bad messages."""
     reports = reports_in(summary)
-    if reports:
-        rss = [r["peak_rss_kb"] for r in reports.values() if r.get("peak_rss_kb")]
-        pss = [r["pss_kb"] for r in reports.values() if r.get("pss_kb")]
-        shared = f" (PSS max {_fmt(max(pss) / 1024, ' MB', 1)})" if pss else ""
-        bad = sum(r.get("bad_messages") or 0 for r in reports.values())
-        rows.append(
-            (
-                "agents' reports",
-                f"{len(reports)} of {summary.get('agents', '?')}: "
-                f"peak memory max {_fmt(max(rss) / 1024 if rss else None, ' MB', 1)}{shared}, "
-                f"{bad} bad messages dropped",
-            )
-        )
+    if not reports:
+        return None
+    rss = [r["peak_rss_kb"] for r in reports.values() if r.get("peak_rss_kb")]
+    pss = [r["pss_kb"] for r in reports.values() if r.get("pss_kb")]
+    shared = f" (PSS max {_fmt(max(pss) / 1024, ' MB', 1)})" if pss else ""
+    bad = sum(r.get("bad_messages") or 0 for r in reports.values())
+    return (
+        f"{len(reports)} of {summary.get('agents', '?')}: "
+        f"peak memory max {_fmt(max(rss) / 1024 if rss else None, ' MB', 1)}{shared}, "
+        f"{bad} bad messages dropped"
+    )
+
+
+def _endings(summary: dict[str, Any]) -> list[Row]:
+    """A run that ended early, and Assumption 2 broken during the run."""
+    rows = []
     if summary.get("aborted"):
         rows.append(("ended early", str(summary["aborted"])))
     if summary.get("assumption2_violations"):
@@ -149,8 +178,7 @@ def render_summary(summary: dict[str, Any]) -> str:
                 "docs/paper-notes.md)",
             )
         )
-    width = max(len(k) for k, _ in rows)
-    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+    return rows
 
 
 def json_safe(summary: dict[str, Any]) -> dict[str, Any]:
