@@ -42,13 +42,10 @@ from shoal.tools.foxglove.plots import TOPICS as METRICS
 from shoal.tools.foxglove.plots import topics_of
 from shoal.tools.foxglove.stream import Stream
 from shoal.tools.foxglove.views import (
-    AGENTS,
-    FRAMES,
-    GRAPH,
-    SENSING,
+    MOVING,
+    STATIC,
     TOPICS,
     TRAILS,
-    WORLD,
     View,
     ViewOptions,
     schema_text,
@@ -66,7 +63,6 @@ PLOT_RATE = FRAME_HZ
 BACKLOG = 4096  # records waiting for the publisher thread; the oldest go beyond it
 FLUSH_S = 0.5  # s for the server to send the last cycle's messages before it stops
 STOP_WAIT_S = 1.0  # for the server to close its connections at the end
-SCENE = (FRAMES, AGENTS, GRAPH)
 # Compact UTF-8 JSON, as the export writes it; a NaN (not JSON) is an error.
 _ENCODE = json.JSONEncoder(
     separators=(",", ":"), ensure_ascii=False, allow_nan=False, check_circular=False
@@ -89,7 +85,7 @@ class _Subscriptions(ServerListener):
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         with self._lock:
             self._count[channel.topic] = self._count.get(channel.topic, 0) + 1
-            self.static_due |= channel.topic in (WORLD, SENSING)
+            self.static_due |= channel.topic in STATIC
         self.viewer.set()
 
     def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
@@ -269,7 +265,7 @@ class LiveView:
             self._fresh = True
         if self._subs.take_static():
             self._publish(s.static())
-        if self._fresh and self._subs.any(*SCENE):
+        if self._fresh and self._subs.any(*MOVING):
             self._publish(s.scene())
             self._fresh = False
         now = time.monotonic()

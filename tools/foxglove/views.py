@@ -40,6 +40,8 @@ GRAPH = "/shoal/scene/graph"
 TRAILS = "/shoal/scene/trails"
 FRAMES = "/shoal/tf"
 LOG = "/shoal/log"
+STATIC = (WORLD, SENSING)  # the layers drawn once (a viewer who subscribes late needs them again)
+MOVING = (FRAMES, AGENTS, GRAPH)  # the scene's layers that move with every tick
 
 SCENE = "foxglove.SceneUpdate"
 TOPICS: dict[str, str] = {  # topic → schema name, in the order the channels are registered
