@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 import statistics
 import tempfile
-import uuid
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +17,7 @@ from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.campaign.people import PeopleOptions, add_people
 from shoal.tools.log.reader import read_trajectory
-from shoal.tools.procs.launch import RunPlan, launch
+from shoal.tools.procs.launch import RunPlan, fresh_run_id, launch
 from shoal.tools.simulator import simulate
 from shoal.world.scenario import Scenario
 
@@ -33,46 +32,44 @@ class Faults:
     drop_rate: float = 0.0
 
 
+@dataclass(frozen=True)
+class Swarming:
+    """How each field runs as a swarm: its ``clock``, the robots' safety ``layer`` (None: the
+    clock's default), the bus's ``faults``, and with ``people`` its crowd."""
+
+    clock: Clock
+    speed: float = 1.0  # realtime: simulated seconds per wall-clock second
+    layer: SafetyLayer | None = None
+    faults: Faults = Faults()
+    people: PeopleOptions | None = None
+
+
 def run_swarms(
     base: Scenario,
     seed: int,
     count: int,
     options: FieldOptions,
-    *,
-    clock: str,
-    speed: float = 1.0,
-    layer: SafetyLayer | None = None,
-    faults: Faults = Faults(),
-    people: PeopleOptions | None = None,
+    how: Swarming,
     done: Callable[[dict[str, Any]], None] = lambda _row: None,
 ) -> list[dict[str, Any]]:
     """One row of figures per field, in seed order (``done`` is called with each); with
-    ``people``, each field has its crowd (tools/campaign/people.py)."""
+    ``how.people``, each field has its crowd (tools/campaign/people.py)."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="shoal-swarm-") as tmp:
-        work = Path(tmp)
         for k in range(count):
-            if people is None:
+            if how.people is None:
                 field = make_field(base, seed + k, "inside", options)
             else:
-                field = add_people(base, seed + k, options, people)
-            path = work / f"{field.name}.yaml"
-            path.write_text(field.source, encoding="utf-8")
-            out = work / f"{field.name}.mcap"
+                field = add_people(base, seed + k, options, how.people)
+            out = Path(tmp) / f"{field.name}.mcap"
             result = launch(
                 RunPlan(
-                    scenario=field,
-                    out=out,
-                    run_id=uuid.uuid4().hex[:8],
-                    clock=Clock(clock),
-                    speed=speed,
-                    safety_layer=layer,
-                    delay_ms=faults.delay_ms,
-                    jitter_ms=faults.jitter_ms,
-                    drop_rate=faults.drop_rate,
+                    scenario=field, out=out, run_id=fresh_run_id(), clock=how.clock,
+                    speed=how.speed, safety_layer=how.layer, delay_ms=how.faults.delay_ms,
+                    jitter_ms=how.faults.jitter_ms, drop_rate=how.faults.drop_rate,
                     drop_seed=seed + k,
                 )
-            )
+            )  # fmt: skip
             s = result.summary
             row = {
                 "name": field.name,
@@ -95,7 +92,7 @@ def run_swarms(
                 "agent_at_fault": s.get("agent_at_fault", 0),
                 "obstacle_at_fault": s.get("obstacle_at_fault", 0),
                 "min_mover_clearance": s.get("min_mover_clearance"),
-                "exact": _exact(out, field) if clock == Clock.LOCKSTEP else None,
+                "exact": _exact(out, field) if how.clock == Clock.LOCKSTEP else None,
             }
             rows.append(row)
             done(row)

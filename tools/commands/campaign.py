@@ -6,7 +6,7 @@ import json
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 import click
 
 from shoal.bus.runtime import exit_on_signals
-from shoal.bus.types import SafetyLayer
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.campaign.cluster import ClusterError, run_on_dask
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
 from shoal.tools.campaign.hard import HARD_MODES
@@ -37,7 +37,13 @@ from shoal.tools.campaign.runner import (
     tasks,
 )
 from shoal.tools.campaign.runner import save_failures as write_failures
-from shoal.tools.campaign.swarms import Faults, render_swarms, run_swarms, swarm_report
+from shoal.tools.campaign.swarms import (
+    Faults,
+    Swarming,
+    render_swarms,
+    run_swarms,
+    swarm_report,
+)
 from shoal.tools.commands.options import load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.extras import require
@@ -223,37 +229,7 @@ def _count(text: str) -> tuple[int, int]:
     "half in 3-D (docs/campaign.md, Hard fields).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
-def campaign(
-    base: str | None,
-    count: int,
-    outside: bool,
-    outside_fields: int,
-    seed: int,
-    jobs: int,
-    dask: str | None,
-    length: float,
-    obstacles: str,
-    spacing: float,
-    sigma_max: float | None,
-    kinematics: str | None,
-    boundary_layer: float,
-    speed_limit: float | None,
-    position_error: float | None,
-    safety: str,
-    swarm: int | None,
-    swarm_clock: str,
-    swarm_safety_layer: str | None,
-    swarm_faults: str,
-    save_failures: Path | None,
-    save_lagging: Path | None,
-    rerun: Path | None,
-    people: int | None,
-    people_speed: float,
-    people_model: str,
-    agent_speed: float,
-    kind: str,
-    as_json: bool,
-) -> None:
+def campaign(**params: Any) -> None:
     """Run many random obstacle fields through the reference simulator, in parallel.
 
     --fields N runs N fields inside the paper's assumptions (every load-time check passes);
@@ -263,115 +239,156 @@ def campaign(
     field collides: that falsifies the guarantee (with --safety paper, the paper's
     Corollary 1). Outside collisions are data. 2 if a field could not be drawn.
     """
-    if rerun is not None:
-        _rerun(rerun, as_json)
+    if params["rerun"] is not None:
+        _rerun(params["rerun"], params["as_json"])
         return
-    options = FieldOptions(
-        length=length, count=_count(obstacles), spacing=spacing, sigma_max=sigma_max,
-        boundary_layer=boundary_layer, kinematics=kinematics, speed_limit=speed_limit,
-        position_error=position_error,
+    config = _config(params)
+    if params["swarm"] is not None:
+        if params["dask"] is not None:
+            raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
+        _swarms(config, params["swarm"], _swarming(params, config.crowd))
+        return
+    if params["dask"] is not None:
+        require("cluster", "--dask")  # before a field is drawn
+    where = Workers(max(1, params["jobs"]), params["dask"])
+    if config.crowd is not None:
+        _people(config, config.crowd, where)
+    else:
+        _reference(config, where)
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """One ``shoal campaign``: fields ``seed``… around ``base``, drawn as ``fields`` says, and
+    what becomes of them."""
+
+    base: Scenario
+    seed: int
+    count: int  # fields inside the assumptions (hard fields, with ``hard``)
+    fields: FieldOptions
+    as_json: bool = False
+    crowd: PeopleOptions | None = None  # fields with people crossing (docs/people.md)
+    hard: bool = False  # the adversarial generator's fields
+    outside: int | None = None  # fields per assumption broken on purpose; None: none
+    modes: tuple[str, ...] = ("filter",)  # the safety each field runs with
+    save_failures: Path | None = None
+    save_lagging: Path | None = None
+
+
+def _config(params: Mapping[str, Any]) -> Campaign:
+    """The campaign the options ask for, checked."""
+    fields = FieldOptions(
+        length=params["length"], count=_count(params["obstacles"]), spacing=params["spacing"],
+        sigma_max=params["sigma_max"], boundary_layer=params["boundary_layer"],
+        kinematics=params["kinematics"], speed_limit=params["speed_limit"],
+        position_error=params["position_error"],
     )  # fmt: skip
-    scn = load_for_cli(base or ("crossing" if people is not None else "obstacles"))
+    people, safety = params["people"], params["safety"]
+    scn = load_for_cli(params["base"] or ("crossing" if people is not None else "obstacles"))
     crowd = None
     if people is not None and safety != "filter":
         raise click.UsageError("--people needs the safety filter (docs/people.md)")
     if people is not None:
         crowd = PeopleOptions(
-            count=people, speed=people_speed, model=people_model, agent_speed=agent_speed
-        )
-    hard = kind == "hard"
-    if hard and (swarm is not None or people is not None or safety != "filter"):
+            count=people, speed=params["people_speed"], model=params["people_model"],
+            agent_speed=params["agent_speed"],
+        )  # fmt: skip
+    hard = params["kind"] == "hard"
+    if hard and (params["swarm"] is not None or people is not None or safety != "filter"):
         raise click.UsageError(
             "--kind hard draws fields for the reference simulator with the safety filter: "
             "not with --swarm, --people or --safety paper/both"
         )
-    if swarm is not None:
-        if dask is not None:
-            raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
-        faults = _faults(swarm_faults, swarm_clock)
-        layer = None if swarm_safety_layer is None else SafetyLayer(swarm_safety_layer)
-        _swarms(scn, seed, swarm, options, swarm_clock, as_json, crowd, layer, faults)
-        return
-    if dask is not None:
-        require("cluster", "--dask")  # before a field is drawn
-    where = Workers(max(1, jobs), dask)
-    if crowd is not None:
-        _people(scn, seed, count, options, crowd, where, save_failures, as_json)
-        return
-    modes = ("filter", "paper") if safety == "both" else (safety,)
-    todo = tasks(scn, seed, count, outside_fields if outside else 0, options, modes, hard=hard)
-    if hard and not as_json:
-        two = sum(HARD_MODES[t.mode] == 2 for t in todo)
-        click.echo(f"{len(todo)} runs: {two} hard fields in 2-D and {len(todo) - two} in 3-D",
+    return Campaign(
+        base=scn, seed=params["seed"], count=params["count"], fields=fields,
+        as_json=params["as_json"], crowd=crowd, hard=hard,
+        outside=params["outside_fields"] if params["outside"] else None,
+        modes=("filter", "paper") if safety == "both" else (safety,),
+        save_failures=params["save_failures"], save_lagging=params["save_lagging"],
+    )  # fmt: skip
+
+
+def _reference(c: Campaign, where: Workers) -> None:
+    """The fields through the reference simulator; exit status 1 if an inside field collided
+    (2 if one could not be drawn)."""
+    todo = tasks(c.base, c.seed, c.count, c.outside or 0, c.fields, c.modes, hard=c.hard)
+    if not c.as_json:  # said up front, before the first field runs
+        click.echo(_up_front(c, len(todo), sum(HARD_MODES.get(t.mode) == 2 for t in todo)),
                    err=True)  # fmt: skip
-    elif not as_json:  # said up front, before the first field runs
-        sets = f"{count} fields inside the assumptions"
-        if outside:
-            sets += f" and {outside_fields} for each of the {len(BREACHES)} broken ones"
-        runs = f", each {' and '.join(modes)}" if len(modes) > 1 else ""
-        hint = "" if outside else " (--outside: also fields that break one on purpose)"
-        click.echo(f"{len(todo)} runs: {sets}{runs}{hint}", err=True)
     start = time.perf_counter()
-    label = f"{len(todo)} hard fields" if hard else f"{len(todo)} fields around {scn.name}"
+    label = f"{len(todo)} hard fields" if c.hard else f"{len(todo)} fields around {c.base.name}"
     with progress_bar(len(todo), label) as bar:
         outcomes: list[Outcome]
         outcomes, jobs = where.run(todo, lambda _o: bar.update(1), run_task)
     rep = report(outcomes, time.perf_counter() - start, jobs)
-    if boundary_layer > 0:  # said with every figure: not the paper's law
-        rep["boundary_layer"] = boundary_layer
-    if kinematics is not None:
-        rep["kinematics"] = kinematics
-    if save_failures is not None:
-        written = {p.stem: str(p) for p in write_failures(outcomes, save_failures)}
-        for failure in rep["failures"]:
-            failure["file"] = written.get(saved_stem(failure["name"], failure["safety"]))
-    if save_lagging is not None:
-        kept = {
-            p.stem: str(p)
-            for p in write_failures(
-                outcomes, save_lagging, which=lambda o: o.lagged and not o.collided
-            )
-        }
-        for field in rep["lagging"]:
-            field["file"] = kept.get(saved_stem(field["name"], field["safety"]))
-    click.echo(json.dumps(_json_safe(rep)) if as_json else render(rep))
-    judged = (
-        ("hard/2d", "hard/3d") if hard else ("inside/paper" if safety == "paper" else "inside",)
-    )
-    _exit_status(rep, save_failures, judged)
+    if c.fields.boundary_layer > 0:  # said with every figure: not the paper's law
+        rep["boundary_layer"] = c.fields.boundary_layer
+    if c.fields.kinematics is not None:
+        rep["kinematics"] = c.fields.kinematics
+    if c.save_failures is not None:
+        _saved(rep["failures"], write_failures(outcomes, c.save_failures))
+    if c.save_lagging is not None:
+        lagging = write_failures(
+            outcomes, c.save_lagging, which=lambda o: o.lagged and not o.collided
+        )
+        _saved(rep["lagging"], lagging)
+    click.echo(json.dumps(_json_safe(rep)) if c.as_json else render(rep))
+    inside = "inside/paper" if c.modes == ("paper",) else "inside"
+    judged = ("hard/2d", "hard/3d") if c.hard else (inside,)
+    _exit_status(rep, c.save_failures, judged)
 
 
-def _people(
-    scn: Scenario,
-    seed: int,
-    count: int,
-    options: FieldOptions,
-    crowd: PeopleOptions,
-    where: Workers,
-    saved: Path | None,
-    as_json: bool,
-) -> None:
+def _up_front(c: Campaign, runs: int, in_2d: int) -> str:
+    """How many runs the options make, and of what (``in_2d``: the hard fields in 2-D)."""
+    if c.hard:
+        return f"{runs} runs: {in_2d} hard fields in 2-D and {runs - in_2d} in 3-D"
+    sets = f"{c.count} fields inside the assumptions"
+    if c.outside is not None:
+        sets += f" and {c.outside} for each of the {len(BREACHES)} broken ones"
+    each = f", each {' and '.join(c.modes)}" if len(c.modes) > 1 else ""
+    hint = "" if c.outside is not None else " (--outside: also fields that break one on purpose)"
+    return f"{runs} runs: {sets}{each}{hint}"
+
+
+def _saved(rows: list[dict[str, Any]], written: Iterable[Path]) -> None:
+    """Each reported field's ``file``: where it was saved as scenario YAML (None: it was not)."""
+    files = {p.stem: str(p) for p in written}
+    for row in rows:
+        row["file"] = files.get(saved_stem(row["name"], row["safety"]))
+
+
+def _people(c: Campaign, crowd: PeopleOptions, where: Workers) -> None:
     """The people campaign; exit status 1 if any contact was an agent's fault."""
-    todo = [PeopleTask(scn.source, scn.name, seed + k, options, crowd) for k in range(count)]
+    todo = [PeopleTask(c.base.source, c.base.name, c.seed + k, c.fields, crowd)
+            for k in range(c.count)]  # fmt: skip
     start = time.perf_counter()
-    label = f"{count} fields with {crowd.count} {crowd.model} people at {crowd.speed:g} m/s"
-    with progress_bar(count, label) as bar:
+    label = f"{c.count} fields with {crowd.count} {crowd.model} people at {crowd.speed:g} m/s"
+    with progress_bar(c.count, label) as bar:
         outcomes: list[PeopleOutcome]
         outcomes, jobs = where.run(todo, lambda _o: bar.update(1), run_people_task)
     rep = people_report(outcomes, crowd, time.perf_counter() - start, jobs)
-    if options.kinematics is not None:
-        rep["kinematics"] = options.kinematics
-    if saved is not None:  # every field with a contact or without success, as scenario YAML
-        saved.mkdir(parents=True, exist_ok=True)
+    if c.fields.kinematics is not None:
+        rep["kinematics"] = c.fields.kinematics
+    if c.save_failures is not None:  # every field with a contact or without success, as YAML
+        c.save_failures.mkdir(parents=True, exist_ok=True)
         for o in outcomes:
             if o.source:
-                (saved / f"{o.name}.yaml").write_text(o.source, encoding="utf-8")
-    click.echo(json.dumps(_json_safe(rep)) if as_json else render_people(rep))
+                (c.save_failures / f"{o.name}.yaml").write_text(o.source, encoding="utf-8")
+    click.echo(json.dumps(_json_safe(rep)) if c.as_json else render_people(rep))
     if rep["agent_at_fault"]:
         click.echo(f"{rep['agent_at_fault']} contact(s) were an agent's fault", err=True)
         sys.exit(1)
     if rep["errors"]:
         sys.exit(2)
+
+
+def _swarming(params: Mapping[str, Any], crowd: PeopleOptions | None) -> Swarming:
+    """How each swarm runs: ``--swarm-clock``, ``--swarm-safety-layer``, ``--swarm-faults``."""
+    clock, layer = params["swarm_clock"], params["swarm_safety_layer"]
+    return Swarming(
+        clock=Clock(clock), layer=None if layer is None else SafetyLayer(layer),
+        faults=_faults(params["swarm_faults"], clock), people=crowd,
+    )  # fmt: skip
 
 
 def _faults(text: str, clock: str) -> Faults:
@@ -397,29 +414,17 @@ def _faults(text: str, clock: str) -> Faults:
     return Faults(delay_ms=delay, jitter_ms=jitter, drop_rate=drop)
 
 
-def _swarms(
-    scn: Scenario,
-    seed: int,
-    count: int,
-    options: FieldOptions,
-    clock: str,
-    as_json: bool,
-    crowd: PeopleOptions | None,
-    layer: SafetyLayer | None,
-    faults: Faults,
-) -> None:
+def _swarms(c: Campaign, count: int, how: Swarming) -> None:
+    """The first ``count`` inside fields as real swarms; exit status 1 if one collided, came
+    below a margin, or (lockstep) differed from the reference."""
     exit_on_signals(grace=SUPERVISOR_GRACE_S)
-    with progress_bar(count, f"{count} swarms ({clock}) around {scn.name}") as bar:
+    with progress_bar(count, f"{count} swarms ({how.clock}) around {c.base.name}") as bar:
         try:
-            rows = run_swarms(
-                scn, seed, count, options, clock=clock, people=crowd, layer=layer,
-                faults=faults,
-                done=lambda _r: bar.update(1),
-            )  # fmt: skip
+            rows = run_swarms(c.base, c.seed, count, c.fields, how, done=lambda _r: bar.update(1))
         except ChildFailed as exc:
             raise click.ClickException(str(exc)) from None
-    rep = swarm_report(rows, clock, layer)
-    click.echo(json.dumps(_json_safe(rep)) if as_json else render_swarms(rep))
+    rep = swarm_report(rows, str(how.clock), how.layer)
+    click.echo(json.dumps(_json_safe(rep)) if c.as_json else render_swarms(rep))
     if rep["collided"] or rep["below_guard"] or rep["below_separation"] or rep["inexact"]:
         sys.exit(1)  # (an agent-at-fault contact counts among the collisions)
 
