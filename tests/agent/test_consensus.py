@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 import pytest
 from numpy.typing import ArrayLike
@@ -53,25 +55,28 @@ def test_epoch_start_every_rounds_ticks() -> None:
     assert all(epoch_start(t, 1) for t in range(5))
 
 
-def test_proposition1_all_hold_max_after_diameter_rounds() -> None:
-    rng = np.random.default_rng(20)
-    for _ in range(150):
+def _random_bids(
+    seed: int, trials: int
+) -> Iterator[tuple[np.random.Generator, np.ndarray, np.ndarray]]:
+    """``trials`` connected graphs of 3–12 nodes, each with a bid > 1 per node, and the
+    generator they were drawn from (seeded)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(trials):
         n = int(rng.integers(3, 13))
-        a = _random_connected(rng, n)
-        bids = 1.0 + rng.exponential(size=n)
+        yield rng, _random_connected(rng, n), 1.0 + rng.exponential(size=n)
+
+
+def test_proposition1_all_hold_max_after_diameter_rounds() -> None:
+    for _, a, bids in _random_bids(20, 150):
         vals = _run_rounds(a, bids, diameter(a))
-        np.testing.assert_array_equal(vals, np.full(n, bids.max()))
+        np.testing.assert_array_equal(vals, np.full(len(bids), bids.max()))
 
 
 def test_after_k_rounds_each_node_holds_max_within_k_hops() -> None:
-    rng = np.random.default_rng(21)
-    for _ in range(100):
-        n = int(rng.integers(3, 13))
-        a = _random_connected(rng, n)
-        bids = 1.0 + rng.exponential(size=n)
+    for rng, a, bids in _random_bids(21, 100):
         k = int(rng.integers(0, diameter(a) + 1))
         vals = _run_rounds(a, bids, k)
-        for i in range(n):
+        for i in range(len(bids)):
             hops = hop_distances(a, i)
             assert vals[i] == bids[hops <= k].max()
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from triangle import triangle
 
 from shoal.agent.leader import detour, lead, remember, steer
 from shoal.bus.geometry import segment_distance
@@ -94,15 +95,7 @@ def test_lead_visits_the_waypoints_in_order_at_the_paths_speed() -> None:
 
 
 def _scenario(waypoints: list[list[float]], **control: object) -> dict[str, object]:
-    return {
-        "dt": 0.01,
-        "duration": 30.0,
-        "control": {"sensing_radius": 5.0, "trigger_radius": 4.0, **control},
-        "graph": {"edges": [[1, 2], [2, 3], [1, 3]]},
-        "agents": [{"offset": [0, 0]}, {"offset": [-3, 3]}, {"offset": [-3, -3]}],
-        "leader": {"waypoints": waypoints, "speed": 1.0},
-        "obstacles": [{"centre": [8, 0.2], "radius": 1.0}],
-    }
+    return triangle(waypoints, duration=30.0, obstacle=([8, 0.2], 1.0), **control)
 
 
 def test_an_obstacle_on_the_leaders_path_is_a_warning_with_the_filter_an_error_without() -> None:

@@ -8,6 +8,7 @@ import dataclasses
 import hashlib
 
 import pytest
+from triangle import triangle
 
 from shoal.tools.simulator import simulate
 from shoal.world.errors import ScenarioError
@@ -64,15 +65,7 @@ def test_the_filter_is_on_by_default_and_idle_on_the_builtins() -> None:
 
 
 def _base(**control: object) -> dict[str, object]:
-    return {
-        "dt": 0.01,
-        "duration": 1.0,
-        "control": {"sensing_radius": 5.0, "trigger_radius": 4.0, **control},
-        "graph": {"edges": [[1, 2], [2, 3], [1, 3]]},
-        "agents": [{"offset": [0, 0]}, {"offset": [-3, 3]}, {"offset": [-3, -3]}],
-        "leader": {"waypoints": [[0, 0], [10, 0]], "speed": 1.0},
-        "obstacles": [{"centre": [5, 3], "radius": 1.0}],
-    }
+    return triangle([[0, 0], [10, 0]], duration=1.0, obstacle=([5, 3], 1.0), **control)
 
 
 @pytest.mark.parametrize(
