@@ -11,13 +11,22 @@ class WireError(BusError, ValueError):
     """Something that cannot go on the wire as asked (a bad run id, an unknown kind)."""
 
 
-class ConfigError(BusError, ValueError):
-    """An agent configuration that the control laws cannot run with, naming its field."""
+class FieldProblem(ValueError):
+    """A value that cannot be used: names the offending ``field`` and what is wrong with it
+    (``problem``); a subclass's ``prefix`` says of what."""
+
+    prefix = ""
 
     def __init__(self, field: str, problem: str) -> None:
         self.field = field
         self.problem = problem
-        super().__init__(f"agent config {field}: {problem}")
+        super().__init__(f"{self.prefix}{field}: {problem}")
+
+
+class ConfigError(BusError, FieldProblem):
+    """An agent configuration that the control laws cannot run with."""
+
+    prefix = "agent config "
 
 
 class DecodeError(WireError):

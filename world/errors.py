@@ -2,18 +2,15 @@
 
 from __future__ import annotations
 
+from shoal.bus.errors import FieldProblem
+
 
 class WorldError(Exception):
     """Base of every error the world package raises."""
 
 
-class ScenarioError(WorldError, ValueError):
+class ScenarioError(WorldError, FieldProblem):
     """A scenario that cannot be run: names the offending field and what is wrong with it."""
-
-    def __init__(self, field: str, problem: str) -> None:
-        self.field = field
-        self.problem = problem
-        super().__init__(f"{field}: {problem}")
 
 
 class AssumptionError(ScenarioError):
