@@ -283,3 +283,131 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
         env={**os.environ, "SHOAL_MYPYC_OPT": "0"},  # the same bits, a quicker compile
     )  # fmt: skip
     return target
+
+
+# The fast lane, `python -m pytest -m "not slow"`, for the loop of writing code; the README's
+# `python -m pytest` (CI) runs every test, these included. Slow: every test of real OS processes
+# (the integration, docker and netns markers), every test of the compiled install (the
+# `installed` fixture: pip builds the per-tick modules with mypyc, minutes), and the tests below,
+# each with why it is slow and, where it guards safety or exactness, what the fast lane keeps
+# of that guarantee. A key is a test's node id without its parameters (every case), with them
+# (that case), or a module (every test in it).
+SLOW = {
+    "tests/agent/test_controller.py::test_a_follower_pressed_against_the_leader_at_its_goal_goes_round_it":
+        "a whole run to the goal; the fast lane keeps the module's other evasion fixes",
+    "tests/agent/test_controller.py::test_an_evasion_beside_a_slot_just_outside_the_guard_ends":
+        "a whole run; the fast lane keeps the module's other evasion fixes",
+    "tests/agent/test_controller.py::test_an_evasion_that_brought_its_follower_to_rest_is_reaimed_at_its_slot":
+        "a long evasion simulated; the fast lane keeps the module's other evasion fixes",
+    "tests/agent/test_delivery.py::test_injected_drops_are_reported_by_shoal_run":
+        "`shoal run` in realtime: a router and a process per agent",
+    "tests/agent/test_leader.py::test_a_leader_that_loses_sight_of_an_obstacle_round_a_cluster_does_not_turn_back":
+        "a whole run round a cluster; the fast lane keeps the leader's other detours",
+    "tests/bus/test_safety.py::test_no_property_fails_on_two_thousand_crowded_cases":
+        "2,000 cases; the fast lane keeps the filter's other property tests",
+    "tests/bus/test_safety_mutants.py::test_a_broken_filter_fails_the_checks[no margin]":
+        "a mutant of the filter through the whole batch; the fast lane keeps the others",
+    "tests/bus/test_safety_mutants.py::test_a_broken_filter_fails_the_checks[no speed cap]":
+        "as above",
+    "tests/integration/test_api.py": "the API guide's examples run whole",
+    "tests/integration/test_cpu.py": "processes spun and measured over windows of time",
+    "tests/integration/test_forks.py": "a fork server and its children",
+    "tests/integration/test_foxglove.py::test_filter_activity_is_the_logs_filtered_flags":
+        "a run exported as Foxglove views",
+    "tests/integration/test_fuzz.py::test_damaged_yaml_text_hypothesis":
+        "the loader's fuzzing; the fast lane keeps test_mutated_builtins_hypothesis",
+    "tests/integration/test_fuzz.py::test_damaged_yaml_text_seeded_random": "as above",
+    "tests/integration/test_fuzz.py::test_each_decoder_on_hypothesis_bad_payloads":
+        "the fuzzing's bulk; the fast lane keeps the hand-made edge cases, what fuzzing found and "
+        "tests/bus/test_wire.py's random bytes",
+    "tests/integration/test_fuzz.py::test_each_decoder_on_seeded_random_bad_payloads": "as above",
+    "tests/integration/test_fuzz.py::test_mutated_builtins_seeded_random":
+        "the loader's fuzzing; the fast lane keeps test_mutated_builtins_hypothesis",
+    "tests/integration/test_fuzz.py::test_truncated_builtins_are_loaded_or_refused":
+        "every truncation of every built-in; as above",
+    "tests/integration/test_fuzz.py::test_valid_messages_round_trip_bit_for_bit":
+        "hundreds of messages per kind; the fast lane keeps tests/bus/test_wire.py's round trips",
+    "tests/integration/test_live.py": "a live Foxglove server on a port",
+    "tests/tools/test_bench.py::test_the_filter_benchmark_times_real_calls_idle_and_active":
+        "a benchmark",
+    "tests/tools/test_campaign.py::test_a_campaign_with_the_boundary_layer_says_so_with_its_figures":
+        "a whole campaign",
+    "tests/tools/test_campaign.py::test_a_hard_campaign_runs_the_generators_fields_in_2d_and_3d":
+        "a whole campaign; the fast lane keeps tests/tools/test_hard_fields.py",
+    "tests/tools/test_campaign.py::test_a_small_campaign_is_safe_inside_and_its_failures_replay":
+        "a whole campaign; the fast lane keeps "
+        "test_inside_fields_with_several_obstacles_never_collide_with_the_filter",
+    "tests/tools/test_campaign.py::test_hard_fields_as_unicycles_are_all_in_the_plane_and_none_collides":
+        "a whole campaign; the fast lane keeps the unicycle safety tests of "
+        "tests/world/test_unicycle.py",
+    "tests/tools/test_campaign.py::test_kinematics_unicycle_turns_the_fields_into_unicycles_facing_anywhere":
+        "a whole campaign",
+    "tests/tools/test_campaign.py::test_the_campaign_says_up_front_how_many_runs_its_options_make":
+        "three whole campaigns",
+    "tests/tools/test_cli.py::test_fast_leader_warns_but_runs":
+        "a whole simulation; the fast lane keeps test_simulate_out_saves_the_exact_trajectory",
+    "tests/tools/test_cli.py::test_run_on_an_unreachable_router_says_so_and_starts_nothing":
+        "waits out a Zenoh session's failure to connect",
+    "tests/tools/test_cli.py::test_simulate_json_has_the_documented_keys":
+        "a whole simulation; the fast lane keeps test_simulate_out_saves_the_exact_trajectory",
+    "tests/tools/test_cli.py::test_simulate_out_names_the_file_it_writes_and_never_overwrites_unasked":
+        "as above",
+    "tests/tools/test_cli.py::test_simulate_prints_arrival_and_the_theorems_margins": "as above",
+    "tests/tools/test_cli.py::test_summary_rows_that_could_look_like_faults_say_what_they_mean":
+        "as above",
+    "tests/tools/test_cluster.py": "a Dask cluster of worker processes",
+    "tests/tools/test_hard_fields.py::test_a_sampled_sign_law_cycle_that_never_arrives_arrives_with_the_boundary_layer":
+        "two whole runs of a hard field",
+    "tests/tools/test_last_run.py": "runs recorded to read back",
+    "tests/tools/test_people_campaign.py::test_one_field_is_judged_with_its_static_twin":
+        "two whole runs; the fast lane keeps the crowds' reproducibility and "
+        "tests/world/test_unicycle.py's give-way to a person",
+    "tests/tools/test_people_campaign.py::test_the_cli_reports_contacts_by_fault_and_fails_on_an_agents_fault":
+        "a whole campaign; as above",
+    "tests/tools/test_people_campaign.py::test_the_cli_runs_unicycles_among_people_and_says_so":
+        "a whole campaign; as above",
+    "tests/tools/test_people_campaign.py::test_unicycles_among_people_tick_fast_enough_for_the_robots_speed":
+        "two whole runs; as above",
+    "tests/tools/test_plot.py": "matplotlib draws every figure",
+    "tests/tools/test_portable.py":
+        "a process per BLAS kernel; the fast lane keeps every built-in's stored digest "
+        "(tests/world/test_scenarios_run.py)",
+    "tests/world/test_convergence.py::test_converges_within_the_bound_from_random_starts":
+        "200 random formations each; the fast lane keeps every built-in's bound "
+        "(tests/world/test_scenarios_run.py)",
+    "tests/world/test_onboard.py::test_each_broken_layer_lets_robots_meet[_AgeIgnored]":
+        "a mutant of the onboard layers run to a meeting; the fast lane keeps one mutant",
+    "tests/world/test_onboard.py::test_each_broken_layer_lets_robots_meet[_LeewayWithoutAge]":
+        "as above",
+    "tests/world/test_onboard.py::test_each_broken_layer_lets_robots_meet[_NoWait]": "as above",
+    "tests/world/test_onboard.py::test_each_broken_layer_lets_robots_meet[_StaleCells]": "as above",
+    "tests/world/test_safety_modes.py::test_the_filter_is_on_by_default_and_idle_on_the_builtins":
+        "every built-in run twice; the fast lane keeps every built-in's stored digest in both "
+        "modes (tests/world/test_scenarios_run.py)",
+    "tests/world/test_unicycle.py::test_each_term_of_the_margin_is_there_for_a_reason":
+        "a run per term left out of the margin",
+    "tests/world/test_unicycle.py::test_the_robotarium_run_keeps_its_bodies_apart_and_off_the_obstacles":
+        "a whole run; the fast lane keeps the unicycle filter's properties over a tick",
+    "tests/world/test_unicycle.py::test_the_summary_says_how_often_the_point_is_held_to_its_cap":
+        "a whole run",
+    "tests/world/test_unicycle.py::test_unicycles_that_start_facing_away_turn_round_beside_obstacles_and_arrive":
+        "whole runs to the goal",
+}  # fmt: skip
+SLOW_MARKERS = ("integration", "docker", "netns")
+
+
+@pytest.hookimpl(tryfirst=True)  # before -m deselects
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    used: set[str] = set()
+    for item in items:
+        node, _, case = item.nodeid.partition("[")
+        keys = (node.split("::")[0], node, item.nodeid if case else None)
+        named = [key for key in keys if key in SLOW]
+        used.update(named)
+        installed = "installed" in getattr(item, "fixturenames", ())
+        if named or installed or any(item.get_closest_marker(m) for m in SLOW_MARKERS):
+            item.add_marker(pytest.mark.slow)
+    # On a run of the whole suite, a key that names no test is a renamed or removed one.
+    whole = not config.option.file_or_dir and not getattr(config.option, "lf", False)
+    if whole and (stale := set(SLOW) - used):
+        raise pytest.UsageError(f"tests/conftest.py SLOW names no test: {sorted(stale)}")
