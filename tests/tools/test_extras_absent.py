@@ -122,7 +122,7 @@ def test_each_command_help(site: Path, command: tuple[str, ...]) -> None:
 @pytest.mark.parametrize(
     ("args", "extra"),
     [
-        (("guard", "--run", "r", "--namespace", "/robot1"), "ros2"),
+        (("guard", "--run", "r", "--ros-namespace", "/robot1"), "ros2"),
         (("robots", "default"), "ros2"),
         (("run", "default", "--robots", "ros2", "--clock", "realtime"), "ros2"),
         (("run", "default", "--live"), "live"),
