@@ -135,7 +135,7 @@ def test_the_messages_keep_their_dataclass_behaviour_in_both_builds(installed: P
             "AgentState(agent_id=1, tick=3, position=(0.5, -1.0), omega=False, bid=1.0, "
             "sigma=2.0, theta=0.0)"
         )
-        assert out["fields"] == ["heading", "evasion", "bid", "sigma_consensus", "busy", "route",
+        assert out["fields"] == ["smoothed", "evasion", "bid", "sigma_consensus", "busy", "route",
                                  "calm", "planned", "known"]  # fmt: skip
     if _compiler():
         assert compiled["assigned"] is False and compiled["tick"] == 2
