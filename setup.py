@@ -43,8 +43,8 @@ TREE = {
 }
 COMPILED = [
     "shoal/bus/messages.py",
-    "shoal/bus/geometry.py",
-    "shoal/bus/safety.py",
+    "shoal/geometry/vectors.py",
+    "shoal/geometry/safety.py",
     "shoal/agent/formation.py",
     "shoal/agent/collision.py",
     "shoal/agent/consensus.py",

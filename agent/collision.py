@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Final
 
-from shoal.bus.geometry import PointsLike, Vector, VectorLike, dot, norm, plain, scale, sub
 from shoal.bus.messages import picklable
+from shoal.geometry.vectors import PointsLike, Vector, VectorLike, dot, norm, plain, scale, sub
 
 _STILL = 1e-9  # m/s: below this speed the agent has no direction of motion, hence no ray
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-from shoal.bus.geometry import PointsLike, VectorLike, add, dot, floats, norm, scale, sub
+from shoal.geometry.vectors import PointsLike, VectorLike, add, dot, floats, norm, scale, sub
 
 # A passage is only entered if the heading crosses the gap at least this steeply:
 # cos of the angle between the heading and the line through the two centres.

@@ -6,7 +6,7 @@ A tick has two halves, because neighbours must hear each other before anyone mov
    the state this agent tells its neighbours.
 2. ``act(memory, sensing, neighbour_states)``: with the neighbours' states of the same tick, drop
    the edges to evading neighbours, compute the nominal v̂_i, pass it through the safety filter
-   (bus/safety.py; unless ``safety: paper``), take one consensus round, produce the command.
+   (geometry/safety.py; unless ``safety: paper``), take one consensus round, produce the command.
 
 Both are pure: memory in, memory out. The agent process and the reference simulator call exactly
 these two methods, which is why a lockstep distributed run can equal the simulator bit for bit.
@@ -23,11 +23,11 @@ from shoal.agent.collision import Evasion, collision_course, evasive_offset, ray
 from shoal.agent.consensus import consensus_round, epoch_of, epoch_start, passage_bid
 from shoal.agent.formation import consensus_error, evasive_error, velocity
 from shoal.agent.leader import Known, lead, remember, steer
-from shoal.bus.geometry import Vector, VectorLike, norm, segment_distance, shaped_vector, sub
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
-from shoal.bus.path import leader_velocity
-from shoal.bus.safety import SafetyFilter
 from shoal.bus.types import AgentConfig, Waypoints
+from shoal.geometry.path import leader_velocity
+from shoal.geometry.safety import SafetyFilter
+from shoal.geometry.vectors import Vector, VectorLike, norm, segment_distance, shaped_vector, sub
 
 
 @dataclass(init=False, slots=True, unsafe_hash=True)
@@ -275,7 +275,7 @@ class Controller:
     def _in_band(self, lag: float) -> bool:
         """Whether a follower is within the sign term's chattering band of its set-point
         (‖e_i‖∞/deg_i ≤ BUSY_BAND·β·dt), where its nominal is the chatter and says nothing of a
-        way round an obstacle: the filter's :func:`~shoal.bus.safety.keep_going` is not for it.
+        way round an obstacle: the filter's :func:`~shoal.geometry.safety.keep_going` is not for it.
 
         Keep-going turns a follower pressed against a guard circle on the way it was going, for
         a slot that lies behind the obstacle, where the projection's tangential part flips with

@@ -8,7 +8,7 @@ arithmetic. Each function does numpy's operations in numpy's order, so the bits 
 
 from __future__ import annotations
 
-from shoal.bus.geometry import PointsLike, Vector, VectorLike, rotation, shaped, sub
+from shoal.geometry.vectors import PointsLike, Vector, VectorLike, rotation, shaped, sub
 
 __all__ = [
     "consensus_error",

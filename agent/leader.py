@@ -21,7 +21,8 @@ import itertools
 import math
 from collections.abc import Sequence
 
-from shoal.bus.geometry import (
+from shoal.bus.types import REACHED
+from shoal.geometry.vectors import (
     Vector,
     VectorLike,
     add,
@@ -33,7 +34,6 @@ from shoal.bus.geometry import (
     segment_distance,
     sub,
 )
-from shoal.bus.types import REACHED
 
 _STEP = math.radians(30.0)  # the polygon's largest turn per vertex
 

@@ -25,7 +25,9 @@ LimitSide = tuple[float, float, float, float]
 class Safety(StrEnum):
     """How an agent's command is made safe (docs/safety.md)."""
 
-    FILTER = "filter"  # the nominal law, capped and projected by the safety filter (bus/safety.py)
+    FILTER = (
+        "filter"  # the nominal law, capped and projected by the safety filter (geometry/safety.py)
+    )
     PAPER = "paper"  # the paper's Algorithm 2 alone, unfiltered
 
 

@@ -303,11 +303,11 @@ SLOW = {
         "`shoal run` in realtime: a router and a process per agent",
     "tests/agent/test_leader.py::test_a_leader_that_loses_sight_of_an_obstacle_round_a_cluster_does_not_turn_back":
         "a whole run round a cluster; the fast lane keeps the leader's other detours",
-    "tests/bus/test_safety.py::test_no_property_fails_on_two_thousand_crowded_cases":
+    "tests/geometry/test_safety.py::test_no_property_fails_on_two_thousand_crowded_cases":
         "2,000 cases; the fast lane keeps the filter's other property tests",
-    "tests/bus/test_safety_mutants.py::test_a_broken_filter_fails_the_checks[no margin]":
+    "tests/geometry/test_safety_mutants.py::test_a_broken_filter_fails_the_checks[no margin]":
         "a mutant of the filter through the whole batch; the fast lane keeps the others",
-    "tests/bus/test_safety_mutants.py::test_a_broken_filter_fails_the_checks[no speed cap]":
+    "tests/geometry/test_safety_mutants.py::test_a_broken_filter_fails_the_checks[no speed cap]":
         "as above",
     "tests/integration/test_api.py": "the API guide's examples run whole",
     "tests/integration/test_cpu.py": "processes spun and measured over windows of time",

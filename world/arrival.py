@@ -51,9 +51,9 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
-from shoal.bus.path import path_positions
 from shoal.bus.types import PathSpec, Waypoints
+from shoal.geometry.path import path_positions
+from shoal.geometry.vectors import FloatArray
 from shoal.world.scenario import Scenario
 from shoal.world.slots import slot_errors
 from shoal.world.trajectory import Trajectory

@@ -26,7 +26,7 @@ every shape demanded, the offsets and each applied reshape, keeps its slots 2R a
 follower's final slot (the leader's last waypoint, or where its sinusoid is at the last tick,
 plus R(θ)δ_i/σ of the last reshape) lies outside every standing obstacle's guard circle; and
 no moving obstacle that walks a route and stops stops with a final slot inside its guard
-r + ρ + u·dt (the margin its row keeps, bus/safety.py ``mover_row``).
+r + ρ + u·dt (the margin its row keeps, geometry/safety.py ``mover_row``).
 """
 
 from __future__ import annotations
@@ -39,9 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, norm, segment_distance, shaped
-from shoal.bus.path import leader_velocities, path_position, path_positions, peak_speed
 from shoal.bus.types import PathSpec, Waypoints
+from shoal.geometry.path import leader_velocities, path_position, path_positions, peak_speed
+from shoal.geometry.vectors import FloatArray, norm, segment_distance, shaped
 from shoal.world.errors import (
     AssumptionError,
     BetaWarning,
@@ -387,7 +387,7 @@ def _final_slots_clear(s: Scenario) -> None:
 def _parked_movers(s: Scenario) -> None:
     """No moving obstacle that walks a route and stops (``kind: route`` without ``loop``) stops
     before the last tick with some agent's final slot inside r + ρ + u·dt of its centre: its
-    row (bus/safety.py ``mover_row``) keeps agents that far from it even at rest. When it stops
+    row (geometry/safety.py ``mover_row``) keeps agents that far from it even at rest. When it stops
     is bounded from above: each leg takes at most ⌈L/(u·dt)⌉ ticks, one more for rounding;
     a walker that may still be on its way at the end is left alone."""
     slots = final_slots(s)

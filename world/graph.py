@@ -13,7 +13,7 @@ from collections.abc import Iterable
 import numpy as np
 from numpy.typing import NDArray
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 
 __all__ = [
     "adjacency",

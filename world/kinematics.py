@@ -11,10 +11,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Mover, Sensing
-from shoal.bus.safety import SafetyFilter
 from shoal.bus.types import Vector
+from shoal.geometry.safety import SafetyFilter
+from shoal.geometry.vectors import FloatArray
 from shoal.world.unicycle import step as unicycle_step
 
 
@@ -134,8 +134,9 @@ def actuate(
 ) -> tuple[FloatArray, int]:
     """The velocities the world lets the agents hold this tick, and how many it corrected.
 
-    The world applies each agent's own safety filter (``filters``, agent-id order; bus/safety.py)
-    to its command with the tick's fresh sensing, as a robot's onboard safety layer would. In
+    The world applies each agent's own safety filter (``filters``, agent-id order;
+    geometry/safety.py) to its command with the tick's fresh sensing, as a robot's onboard
+    safety layer would. In
     lockstep every command was computed from exactly this sensing and is already feasible, so
     it comes back unchanged, bit for bit (0 corrected); in realtime a command computed from an
     older position is projected again before it moves the agent. ``velocities`` (n, dim) m/s

@@ -18,10 +18,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import SafetyFilter
 from shoal.bus.types import ControlParams, LimitSide, SafetyLayer
+from shoal.geometry.safety import SafetyFilter
+from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import actuate
 from shoal.world.onboard import Link, OnboardLayers
 

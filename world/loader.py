@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from shoal.bus.geometry import dot, norm
 from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoints
+from shoal.geometry.vectors import dot, norm
 from shoal.world.assumptions import check_assumptions
 from shoal.world.errors import ScenarioError
 from shoal.world.movers import Drift, Motion, Person, Route

@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, norm, shaped
-from shoal.bus.path import path_position, peak_speed
-from shoal.bus.safety import TOLERANCE
 from shoal.bus.types import Clock
+from shoal.geometry.path import path_position, peak_speed
+from shoal.geometry.safety import TOLERANCE
+from shoal.geometry.vectors import FloatArray, norm, shaped
 from shoal.world.arrival import STALL_SPEED, arrival
 from shoal.world.contacts import contacts
 from shoal.world.obstacles import centres_at
@@ -94,7 +94,7 @@ class Summary:
 STALL_TIME = 0.5
 
 # m per tick: how much deeper a pair of bodies may overlap each tick without a collision. The
-# filter accepts a row met within bus/safety.py's TOLERANCE (1e-12 m), so an agent pressed
+# filter accepts a row met within geometry/safety.py's TOLERANCE (1e-12 m), so an agent pressed
 # against a row may sink that much further every tick, and a pair of agents twice that (each
 # agent's row); the other 2e-12 m cover the rounding of positions (an ulp of a 100 m coordinate
 # is 1.4e-14 m). Over a run of T ticks the overlap is at most T times this.

@@ -14,7 +14,7 @@ A tick k of a run: from the obstacles' centres c_k and last velocities, :func:`p
 velocity w_k each holds over the tick (people react to the agents' positions at the start of
 the tick); the agents sense c_k and w_k; then c_{k+1} = c_k + dt·w_k (:func:`advance`). All
 arithmetic is on plain Python floats in a fixed order, so every machine gets the same bits
-(bus/geometry.py).
+(geometry/vectors.py).
 
 Why not a library: PySocialForce (PyPI 1.1.2) is 2-D only, needs numba and scipy (a JIT
 compiler in every world process, whose float results are not promised across CPUs), and is
@@ -29,8 +29,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from shoal.bus.geometry import right_of, vdot
 from shoal.bus.types import Vector
+from shoal.geometry.vectors import right_of, vdot
 
 RELAXATION = 0.5  # s: τ, how fast a person takes up its preferred velocity
 # The repulsions, each (V/σ)·exp(−gap/σ), the gradient of the 1995 paper's exponential

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Mover, Sensing
 from shoal.bus.types import Vector
+from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import estimated, sense_all
 from shoal.world.movers import Body, Motion, MoverState, advance, plan, start
 from shoal.world.scenario import Scenario

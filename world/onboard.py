@@ -39,10 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import Row, SafetyFilter
 from shoal.bus.types import ControlParams, LimitSide, Vector
+from shoal.geometry.safety import Row, SafetyFilter
+from shoal.geometry.vectors import FloatArray
 
 HEARD_WITHIN = 256  # ticks: an older last-heard position counts as never heard (near)
 _MASK = (1 << 64) - 1

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import move
 
 

@@ -15,7 +15,6 @@ from functools import cached_property
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.types import (
     AgentConfig,
     Clock,
@@ -27,6 +26,7 @@ from shoal.bus.types import (
     Vector,
     gains_of,
 )
+from shoal.geometry.vectors import FloatArray
 from shoal.world.graph import adjacency, communication_graph, diameter
 from shoal.world.limits import limit_sides, outer
 from shoal.world.movers import Motion

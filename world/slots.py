@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
 
@@ -18,7 +18,7 @@ from shoal.world.trajectory import Trajectory
 def slot_errors(scenario: Scenario, traj: Trajectory) -> FloatArray:
     """(T, n-1, dim) every follower's position minus its slot at the start of every tick, m.
 
-    The demanded offsets are :func:`~shoal.bus.geometry.shaped`'s, elementwise over all ticks
+    The demanded offsets are :func:`~shoal.geometry.vectors.shaped`'s, elementwise over all ticks
     at once: the same operations, so the same bits; cos and sin by ``math`` on each distinct θ
     (numpy's may be vectorised differently on another CPU)."""
     offsets = scenario.offsets[1:]

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import AgentState, Command, Sensing, TickRecord
+from shoal.geometry.vectors import FloatArray
 from shoal.world.layers import Layer
 from shoal.world.movers import MoverState
 from shoal.world.obstacles import Obstacles

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 
 
 def _least_norm(start: FloatArray, end: FloatArray) -> FloatArray:

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 from shoal.world.graph import follower_matrix
 
 

@@ -15,8 +15,8 @@ from typing import Any, BinaryIO, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import TickRecord
+from shoal.geometry.vectors import FloatArray
 from shoal.world.unicycle import Lookahead
 from shoal.world.unicycle import step as unicycle_step
 

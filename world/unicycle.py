@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 
 
 def _sinc(x: float) -> float:

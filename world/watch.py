@@ -16,9 +16,9 @@ from collections import deque
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
-from shoal.bus.path import path_position
 from shoal.bus.types import Waypoints
+from shoal.geometry.path import path_position
+from shoal.geometry.vectors import FloatArray
 from shoal.world.arrival import NO_PROGRESS_TIME, arrival_tolerance
 from shoal.world.scenario import Scenario
 

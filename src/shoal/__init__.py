@@ -13,7 +13,8 @@ that ``import shoal`` stays cheap for the processes of a swarm, which import ``s
 - :func:`read_log` a run's MCAP file back — its scenario and trajectory;
 - :func:`verify` a lockstep log against the reference, tick by tick.
 
-Subpackages: ``shoal.bus`` (wire types, codec, geometry, the safety filter), ``shoal.agent``
+Subpackages: ``shoal.bus`` (wire types, codec, keys, transport), ``shoal.geometry``
+(vectors, the leader's path, the safety filter), ``shoal.agent``
 (one agent's control laws and process), ``shoal.world`` (scenarios, kinematics, metrics) and
 ``shoal.tools`` (the reference simulator, the processes, logs, campaigns, the CLI).
 """

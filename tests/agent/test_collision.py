@@ -9,7 +9,7 @@ import pytest
 from numpy.typing import ArrayLike
 
 from shoal.agent.collision import Evasion, collision_course, evasive_offset, ray_distance
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 
 # Dyadic values so r + ρ + ε is exact in floating point: 1 + 0.25 + 0.125 = 1.375.
 R, RHO, EPS = 1.0, 0.25, 0.125

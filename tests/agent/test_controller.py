@@ -332,7 +332,7 @@ def test_an_evasion_beside_a_slot_just_outside_the_guard_ends() -> None:
 
 def test_a_follower_pressed_against_the_leader_at_its_goal_goes_round_it() -> None:
     """The follower's slot lies beyond the leader, which stands at its goal: head on against
-    it, going nowhere, the follower turns to its right (bus/safety.py, sidestep's ``held``)."""
+    it, going nowhere, the follower turns to its right (geometry/safety.py, sidestep's ``held``)."""
     from shoal.world.metrics import summarize
 
     scn, traj, _gap = _kept_field("behind-the-leader")

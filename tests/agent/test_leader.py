@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from triangle import triangle
 
 from shoal.agent.leader import detour, lead, remember, steer
-from shoal.bus.geometry import segment_distance
 from shoal.bus.types import REACHED
+from shoal.geometry.vectors import segment_distance
 from shoal.world.errors import AssumptionError, DetourWarning
 from shoal.world.loader import scenario_from_dict
 

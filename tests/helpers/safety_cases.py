@@ -1,6 +1,6 @@
-"""Cases and checkers for the safety filter's properties (tests/bus/test_safety.py), written against
-any filter with the signature of :func:`shoal.bus.safety.safe_velocity`, so that the same
-checkers can be shown to catch broken filters (tests/bus/test_safety_mutants.py).
+"""Cases and checkers for the safety filter's properties (tests/geometry/test_safety.py), written
+against any filter with the signature of :func:`shoal.geometry.safety.safe_velocity`, so that
+the same checkers can be shown to catch broken filters (tests/geometry/test_safety_mutants.py).
 
 A case is one agent at a safe position among obstacles and other agents, often right at a guard
 circle or a cell edge (where corners of several rows meet), with an arbitrary nominal velocity.
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import Row, rows_for
 from shoal.bus.types import Vector
+from shoal.geometry.safety import Row, rows_for
 
 Filter = Callable[..., tuple[float, ...]]
 SLACK = 1e-9  # m: what the whole-step checks allow for rounding (the filter's own is 1e-12)

@@ -40,8 +40,8 @@ from shoal.bus import codec
 from shoal.bus.keys import Keys
 from shoal.bus.links import subscribe, watch_presence
 from shoal.bus.messages import Event
-from shoal.bus.path import peak_speed
 from shoal.bus.runtime import Inbox
+from shoal.geometry.path import peak_speed
 from shoal.tools.bench.drops import measure
 from shoal.tools.log.reader import iter_channel, read_ticks, read_trajectory
 from shoal.tools.procs.swarm import Swarm

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture
 def crowded(tmp_path: Path) -> Path:
     """A user's project folder with packages of the names shoal used to install."""
-    for name in ("tools", "world", "agent", "bus"):
+    for name in ("tools", "world", "agent", "bus", "geometry"):
         (tmp_path / name).mkdir()
         (tmp_path / name / "__init__.py").write_text(f"MINE = {name!r}\n")
     return tmp_path

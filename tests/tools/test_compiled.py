@@ -19,8 +19,8 @@ from shoal.world.loader import load_scenario
 
 COMPILED = [
     "shoal.bus.messages",
-    "shoal.bus.geometry",
-    "shoal.bus.safety",
+    "shoal.geometry.vectors",
+    "shoal.geometry.safety",
     "shoal.agent.formation",
     "shoal.agent.collision",
     "shoal.agent.consensus",

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
-from shoal.bus.geometry import segment_distance
+from shoal.geometry.vectors import segment_distance
 from shoal.tools.campaign.hard import RHO, SLACK, hard_field
 from shoal.tools.campaign.runner import judge
 from shoal.world.errors import BetaWarning

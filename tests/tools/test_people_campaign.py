@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from shoal.bus import safety
-from shoal.bus.safety import Row, mover_row
+from shoal.geometry import safety
+from shoal.geometry.safety import Row, mover_row
 from shoal.tools.campaign.fields import FieldOptions
 from shoal.tools.campaign.people import (
     PeopleOptions,

@@ -1,11 +1,11 @@
 """The reference simulator gives the same bits whichever BLAS kernel numpy's OpenBLAS picks.
 
 OpenBLAS chooses its kernel by the CPU (and OPENBLAS_CORETYPE). Until the control code stopped
-handing 2- and 3-vectors to BLAS (bus/geometry.py: ``dot``, ``norm``, ``shaped``), a container on
-the same machine, where OPENBLAS_CORETYPE was not set, picked kernel "SkylakeX" instead of
-"Haswell", and its run of ``obstacles`` left the reference by 1 ulp at tick 1,114: a compose run
-no longer equalled the reference computed on the host. Each variant here runs in its own
-process: the kernel is fixed when numpy loads.
+handing 2- and 3-vectors to BLAS (geometry/vectors.py: ``dot``, ``norm``, ``shaped``), a
+container on the same machine, where OPENBLAS_CORETYPE was not set, picked kernel "SkylakeX"
+instead of "Haswell", and its run of ``obstacles`` left the reference by 1 ulp at tick 1,114: a
+compose run no longer equalled the reference computed on the host. Each variant here runs in
+its own process: the kernel is fixed when numpy loads.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Deadlocks in crowds (bus/safety.py ``slide_right``): a jammed agent follows the
+"""Deadlocks in crowds (geometry/safety.py ``slide_right``): a jammed agent follows the
 right-hand face of its cell, so a symmetric crowd unwinds like a roundabout; the answer is still
 a projection onto the filter's rows, so nothing about safety changes."""
 
@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from shoal.bus.geometry import right_of
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import project, rows_for, safe_velocity, satisfies, sidestep, slide_right
+from shoal.geometry.safety import project, rows_for, safe_velocity, satisfies, sidestep, slide_right
+from shoal.geometry.vectors import right_of
 from shoal.tools.simulator import simulate
 from shoal.world.loader import scenario_from_dict
 from shoal.world.metrics import formation_errors, summarize

@@ -1,4 +1,4 @@
-"""A unicycle's limits as rows of its safety filter (world/limits.py, bus/safety.py): every
+"""A unicycle's limits as rows of its safety filter (world/limits.py, geometry/safety.py): every
 point velocity inside the polygon is a (v, ω) within every limit, whatever the robot; the filter
 keeps them from any safe state, the bodies clear along the true arcs as before; and the polygon
 gives back what the old disc withheld. Mutants (the chords' bow dropped, a limit forgotten, the
@@ -14,8 +14,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from shoal.bus.messages import Mover, Sensing
-from shoal.bus.safety import cap_to_limits, limit_rows, safe_velocity
 from shoal.bus.types import LimitSide
+from shoal.geometry.safety import cap_to_limits, limit_rows, safe_velocity
 from shoal.world import limits as limits_module
 from shoal.world.limits import LimitError, limit_sides, outer
 from shoal.world.loader import load_scenario

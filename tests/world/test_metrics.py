@@ -8,8 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from shoal.bus.safety import TOLERANCE
 from shoal.bus.types import Reshape
+from shoal.geometry.safety import TOLERANCE
 from shoal.tools.simulator import simulate
 from shoal.world.loader import load_scenario, parse_scenario
 from shoal.world.metrics import clearances, contact_slack, pair_distances, summarize
@@ -110,7 +110,7 @@ leader: {waypoints: [[0, 0], [0, 0]], speed: 0.5}
     assert s.separation == 2 * s.agent_radius == 0.4
     pairs = pair_distances(traj)
     # pressed at the separation, held by the filter (going nowhere, each turns right along the
-    # bisector, so they slide on it rather than sit exactly on it: bus/safety.py sidestep)
+    # bisector, so they slide on it rather than sit exactly on it: geometry/safety.py sidestep)
     assert int((pairs - s.separation < 1e-4).sum()) > 50 and int(traj.filtered.sum()) > 1000
     assert got.collisions == 0
     assert -got.contact_slack <= got.separation_margin < 1e-4

@@ -1,4 +1,4 @@
-"""Moving obstacles and people (world/movers.py, bus/safety.py's moving rows, docs/people.md):
+"""Moving obstacles and people (world/movers.py, geometry/safety.py's moving rows, docs/people.md):
 the filter keeps an agent faster than u_max off any obstacle that walks at up to u_max, a
 cornered agent never moves towards who corners it, contacts are classified by that rule, the
 social force model walks people where they should go, and a run with people is exact."""
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from shoal.bus import codec, safety
 from shoal.bus.errors import DecodeError
 from shoal.bus.messages import Mover, Sensing, TickRecord
-from shoal.bus.safety import mover_row, safe_velocity
+from shoal.geometry.safety import mover_row, safe_velocity
 from shoal.tools.simulator import simulate
 from shoal.world.contacts import TOWARDS, contacts
 from shoal.world.errors import ScenarioError

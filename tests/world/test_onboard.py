@@ -16,8 +16,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shoal.bus.safety import Row
 from shoal.bus.types import ControlParams, Vector
+from shoal.geometry.safety import Row
 from shoal.world.kinematics import estimated, sense_all
 from shoal.world.loader import load_scenario
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks, plane_row

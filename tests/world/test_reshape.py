@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from shoal.bus.geometry import rotation
+from shoal.geometry.vectors import rotation
 from shoal.tools.simulator import simulate
 from shoal.world.loader import scenario_from_dict
 

@@ -8,7 +8,7 @@ import functools
 import numpy as np
 import pytest
 
-from shoal.bus.geometry import rotation
+from shoal.geometry.vectors import rotation
 from shoal.tools.simulator import simulate
 from shoal.world.loader import builtin_names, load_scenario
 from shoal.world.metrics import Summary, formation_errors, pair_distances, summarize

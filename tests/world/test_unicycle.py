@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from shoal.bus.messages import Mover, Sensing
-from shoal.bus.safety import safe_velocity
+from shoal.geometry.safety import safe_velocity
 from shoal.tools.commands.report import render_summary
 from shoal.tools.simulator import simulate
 from shoal.world.errors import ScenarioError

@@ -1,6 +1,6 @@
 """What the safety filter costs per agent-tick (``shoal bench --filter``), warm, on the calls a
 real run makes: every call of one campaign field where the filter acts is recorded, then
-replayed through the agents' own :class:`shoal.bus.safety.SafetyFilter` alone. Beside it, in
+replayed through the agents' own :class:`shoal.geometry.safety.SafetyFilter` alone. Beside it, in
 the same invocation, the whole reference simulator's CPU per agent-tick (the agent's laws,
 sensing, the world's second pass): the budget the filter takes its share of."""
 
@@ -16,9 +16,9 @@ from typing import Any
 from unittest import mock
 
 from shoal.agent import controller
-from shoal.bus import safety
 from shoal.bus.messages import Sensing
 from shoal.bus.types import Vector
+from shoal.geometry import safety
 from shoal.tools import simulator
 from shoal.tools.campaign.fields import make_field
 from shoal.tools.simulator import simulate

@@ -33,9 +33,9 @@ import numpy as np
 import yaml
 
 from shoal.agent.consensus import passage_bid
-from shoal.bus.geometry import FloatArray, shaped
-from shoal.bus.path import path_position, peak_speed
 from shoal.bus.types import PathSpec, Sinusoid, Waypoints
+from shoal.geometry.path import path_position, peak_speed
+from shoal.geometry.vectors import FloatArray, shaped
 from shoal.world import assumptions
 from shoal.world.errors import ScenarioError, ScenarioWarning, WorldError
 from shoal.world.graph import adjacency, reached_from_leader

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from shoal.bus.path import path_position
+from shoal.geometry.path import path_position
 from shoal.tools.campaign.fields import FieldError, unicycle_fields, unicycle_for
 from shoal.tools.campaign.shapes import SHAPES, offsets, sparsest_graph
 from shoal.world.errors import ScenarioWarning, SpeedCapWarning, WorldError

@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from shoal.bus.geometry import segment_distance
-from shoal.bus.path import path_position
+from shoal.geometry.path import path_position
+from shoal.geometry.vectors import segment_distance
 from shoal.tools.campaign.fields import FieldOptions, make_field, makes_unicycles
 from shoal.tools.simulator import simulate
 from shoal.world.contacts import Contact, contacts

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 from shoal.tools.campaign.fields import FieldOptions, make_field, unicycle_for
 from shoal.world.assumptions import check_graph
 from shoal.world.errors import AssumptionError, ScenarioWarning, WorldError

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.bus.geometry import shaped
 from shoal.bus.messages import TickRecord
-from shoal.bus.path import path_positions
+from shoal.geometry.path import path_positions
+from shoal.geometry.vectors import shaped
 from shoal.tools.foxglove.msgs import (
     LINE_LIST,
     LINE_LOOP,

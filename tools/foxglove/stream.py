@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Event, TickRecord
+from shoal.geometry.vectors import FloatArray
 from shoal.tools.foxglove.msgs import Json, log, vec3s
 from shoal.tools.foxglove.plots import plots
 from shoal.tools.foxglove.scene import Layers

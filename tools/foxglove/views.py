@@ -24,8 +24,8 @@ from importlib import resources
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import Event, TickRecord
+from shoal.geometry.vectors import FloatArray
 from shoal.tools.foxglove.msgs import Json, log, vec3s
 from shoal.tools.foxglove.plots import SCHEMAS as PLOT_SCHEMAS
 from shoal.tools.foxglove.plots import TOPICS as PLOT_TOPICS

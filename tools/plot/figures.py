@@ -20,8 +20,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
-from shoal.bus.geometry import FloatArray
-from shoal.bus.path import path_positions
+from shoal.geometry.path import path_positions
+from shoal.geometry.vectors import FloatArray
 from shoal.world.contacts import contacts
 from shoal.world.metrics import (
     Summary,

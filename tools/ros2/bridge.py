@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
+from shoal.geometry.vectors import FloatArray
 from shoal.tools.ros2 import rmw
 from shoal.tools.ros2.node import Heard, RosSession
 from shoal.world.plant import Observed, PlantError

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import TickRecord
+from shoal.geometry.vectors import FloatArray
 from shoal.world.metrics import clearances, formation_errors, pair_distances
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory

@@ -32,8 +32,8 @@ from typing import Any, ClassVar, Protocol, cast
 import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as ros
 
-from shoal.bus.geometry import FloatArray
 from shoal.bus.messages import TickRecord
+from shoal.geometry.vectors import FloatArray
 from shoal.tools.foxglove.msgs import RGBA, vec3s, yaw
 from shoal.tools.foxglove.scene import EDGE, MOVER, OBSTACLE, PILLAR_M, Layers, frame
 from shoal.tools.foxglove.views import BLOCK, RunLog

@@ -1,4 +1,4 @@
-"""The leader's path ẋ_1 = f(t): waypoints and sinusoid; bus/path.py."""
+"""The leader's path ẋ_1 = f(t): waypoints and sinusoid; geometry/path.py."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from shoal.bus.path import leader_velocity, path_position, peak_speed
 from shoal.bus.types import Sinusoid, Waypoints
+from shoal.geometry.path import leader_velocity, path_position, peak_speed
 
 ELL = Waypoints(points=((0.0, 0.0), (3.0, 0.0), (3.0, 4.0)), speed=1.0)  # length 7 m
 WAVE = Sinusoid(

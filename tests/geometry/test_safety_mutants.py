@@ -1,6 +1,6 @@
 """The safety tests can fail: each broken filter below (a margin dropped, rows handled one at a
 time instead of projected jointly, the cap forgotten, a stop instead of a projection, pruning by
-the wrong radius) is caught by the very checkers tests/bus/test_safety.py holds the real filter
+the wrong radius) is caught by the very checkers tests/geometry/test_safety.py holds the real filter
 to."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from collections.abc import Callable
 import pytest
 from safety_cases import cases, failures
 
-from shoal.bus import safety
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import Filtered, Row, cap_speed, project, rows_for, safe_velocity
 from shoal.bus.types import Vector
+from shoal.geometry import safety
+from shoal.geometry.safety import Filtered, Row, cap_speed, project, rows_for, safe_velocity
 
 BATCH = cases(seed=11, count=600)
 

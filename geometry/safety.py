@@ -13,10 +13,11 @@ it, or stands, and never towards them (:func:`evade`, docs/people.md). With 2 or
 it is solved exactly by enumerating active sets of at most ``dim`` rows: no solver, no
 iteration, the same bits in every process.
 
-It lives in the shared package because two processes run it: the agent filters its own command
-(the theorem's setting), and the world applies the very same function at the actuator with
-fresh positions before it integrates, standing in for a robot's onboard safety layer (in
-lockstep the command is already feasible and comes back unchanged, bit for bit).
+It lives in geometry/, which the agents and the world share, because two processes run it: the
+agent filters its own command (the theorem's setting), and the world applies the very same
+filter in its safety layer with fresh positions before the plant moves the agents, standing in
+for a robot's onboard safety layer (in lockstep the command is already feasible and comes back
+unchanged, bit for bit).
 
 All arithmetic is on plain floats: the vectors have 2 or 3 coordinates, where a numpy call costs
 more than the work. Vectors are tuples in metres (positions) or m/s (velocities); dt in s.
@@ -31,9 +32,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
-from shoal.bus.geometry import right_of, vdot
 from shoal.bus.messages import Mover, Sensing, picklable
 from shoal.bus.types import ControlParams, LimitSide, Vector
+from shoal.geometry.vectors import right_of, vdot
 
 # m: a row counts as met when g·u·dt ≥ h − TOLERANCE. Rounding of a 3×3 solve is ~1e-16 m; this
 # only keeps an exactly-on-the-boundary solution from failing its own check.

@@ -1,7 +1,7 @@
 """The leader's motion ẋ_1 = f(t): waypoints along straight legs, or the paper's sinusoid.
 
 Only the leader agent moves along its path, but the world evaluates it too (Assumption 4 and the
-|f| < β check at load, f_max for the convergence bound), so it lives in the shared package.
+|f| < β check at load, f_max for the convergence bound), so it lives in geometry/, which both share.
 
 The leader moves open loop: the command of tick k is the displacement of the path over the tick
 divided by dt, so an Euler step lands on the path and |f| never exceeds the path's speed (corners
@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from shoal.bus.geometry import FloatArray, norm
 from shoal.bus.types import PathSpec, Sinusoid, Waypoints
+from shoal.geometry.vectors import FloatArray, norm
 
 
 def path_position(path: PathSpec, t: float) -> FloatArray:

@@ -1,4 +1,4 @@
-"""The safety filter (bus/safety.py, docs/safety.md): feasible, optimal, never longer than the
+"""The safety filter (geometry/safety.py, docs/safety.md): feasible, optimal, never longer than the
 nominal, the identity on a feasible nominal, and safe over the whole step — for one agent in
 any crowd, and for a whole swarm under any nominal law, in 2-D and 3-D."""
 
@@ -22,7 +22,7 @@ from safety_cases import (
 )
 
 from shoal.bus.messages import Sensing
-from shoal.bus.safety import (
+from shoal.geometry.safety import (
     Row,
     agent_row,
     obstacle_row,
