@@ -12,9 +12,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shoal.bus import codec, safety
+from shoal.bus import codec
 from shoal.bus.errors import DecodeError
 from shoal.bus.messages import Mover, Sensing, TickRecord
+from shoal.geometry import safety
 from shoal.geometry.safety import mover_row, safe_velocity
 from shoal.tools.simulator import simulate
 from shoal.world.contacts import TOWARDS, contacts
