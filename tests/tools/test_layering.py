@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -17,11 +18,15 @@ LINT = Path(sys.executable).parent / "lint-imports"
 
 
 def _tree(dest: Path) -> Path:
-    """shoal/ as the wheel lays it out: src/shoal's files with agent/, bus/, world/, tools/."""
+    """shoal/ as the wheel lays it out: src/shoal's files with every folder pyproject.toml maps
+    into it (agent/, bus/, geometry/, world/, tools/)."""
     pkg = dest / "shoal"
     shutil.copytree(ROOT / "src" / "shoal", pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    for name in ("agent", "bus", "world", "tools"):
-        shutil.copytree(ROOT / name, pkg / name, ignore=shutil.ignore_patterns("__pycache__"))
+    mapping = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    for package, folder in mapping["tool"]["setuptools"]["package-dir"].items():
+        if package != "shoal":
+            shutil.copytree(ROOT / folder, pkg / package.removeprefix("shoal."),
+                            ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
     return pkg
 
 
@@ -38,6 +43,8 @@ def _lint(site: Path) -> subprocess.CompletedProcess[str]:
     ("module", "line", "contract"),
     [
         ("bus/keys.py", "import shoal.agent.formation", "bus imports nothing else"),
+        ("bus/keys.py", "import shoal.geometry.safety", "bus imports nothing else"),
+        ("geometry/safety.py", "import shoal.world.graph", "geometry imports bus only"),
         ("world/graph.py", "import shoal.tools.simulator", "never tools"),
         ("agent/formation.py", "import shoal.world.graph", "do not import each other"),
         ("tools/commands/plot.py", "import shoal.tools.commands.run", "no command imports"),
