@@ -44,6 +44,7 @@ class Step:
     def __init__(self, scenario: Scenario, layer: Layer, plant: Plant) -> None:
         s = scenario
         self.n, self.dim, self.radius = s.n, s.dim, s.control.sensing_radius
+        self.standing: tuple[float, ...] = (0.0,) * s.dim  # the command of an agent with none
         self.layer, self.plant = layer, plant
         self.obstacles = Obstacles.of(s)
         self.crowd = self.obstacles.start(s)
@@ -82,10 +83,11 @@ class Step:
     def _apply(self, k: int, reports: Mapping[int, Report]) -> tuple[FloatArray, Said, MoverState]:
         seen, crowd = self.seen, self.crowd
         said = _said(reports, seen.stale, self.n)
-        commanded = np.zeros((self.n, self.dim))
+        rows = [self.standing] * self.n
         for i, (_state, command) in reports.items():
             if i not in seen.stale:  # a robot not seen stands, and says nothing this tick
-                commanded[i - 1] = command.velocity
+                rows[i - 1] = command.velocity
+        commanded: FloatArray = np.array(rows, dtype=np.float64)
         velocities = self.layer.act(k, self.sensings, commanded)
         for i in seen.stale:  # whatever a layer made of it: a robot not seen stands
             velocities[i - 1] = 0.0
