@@ -16,7 +16,6 @@ rad. Commands come in as the agents' messages; the tick goes out as one :class:`
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from typing import Any
 
 import numpy as np
 
@@ -43,7 +42,7 @@ class Step:
 
     def __init__(self, scenario: Scenario, layer: Layer, plant: Plant) -> None:
         s = scenario
-        self.n, self.dim, self.radius = s.n, s.dim, s.control.sensing_radius
+        self.n, self.radius = s.n, s.control.sensing_radius
         self.standing: tuple[float, ...] = (0.0,) * s.dim  # the command of an agent with none
         self.layer, self.plant = layer, plant
         self.obstacles = Obstacles.of(s)
@@ -104,10 +103,6 @@ class Step:
         self.plant.stop()
         seen = self.plant.observe()
         return self.recorder.finish(seen.positions, self.crowd.centres, seen.headings)
-
-    def report(self) -> dict[str, Any]:
-        """Summary entries of the layer and, for robots, of the plant."""
-        return {**self.layer.report(), **self.plant.report()}
 
 
 def _said(reports: Mapping[int, Report], stale: frozenset[int], n: int) -> Said:
