@@ -270,19 +270,61 @@ def cpu_hogs(count: int, seconds: float) -> Iterator[None]:
             h.wait()
 
 
+@dataclass
+class Build:
+    """``pip install`` of this checkout into ``target``, running in its own process group."""
+
+    proc: subprocess.Popen[bytes]
+    target: Path
+    log: Path
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _install_in_background(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Build | None]:
+    """Starts the build behind :func:`installed` when the session begins, if a collected test
+    uses it: mypyc's type check and one C compiler on one core take a minute and a half, which
+    the session's first tests (one core each: unit and property tests) leave to it. At the
+    lowest priority (nice 19), so the realtime runs it may overlap get the CPU first: the
+    build only takes what they leave, and a test that needs it waits for the rest."""
+    if not any("installed" in getattr(i, "fixturenames", ()) for i in request.session.items):
+        yield None
+        return
+    target = tmp_path_factory.mktemp("site")
+    log = target.parent / "pip-install.log"
+    with log.open("wb") as sink:
+        proc = subprocess.Popen(
+            ["nice", "-n", "19", sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
+             "--no-build-isolation", "--target", str(target), str(ROOT)],
+            cwd=tmp_path_factory.mktemp("build"), stdout=sink, stderr=subprocess.STDOUT,
+            env={**os.environ, "SHOAL_MYPYC_OPT": "0"},  # the same bits, a quicker compile
+            start_new_session=True,  # its compilers too are stopped with it below
+        )  # fmt: skip
+    try:
+        yield Build(proc, target, log)
+    finally:
+        if proc.poll() is None:  # the session ended (or was interrupted) before a test needed it
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
 @pytest.fixture(scope="session")
-def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def installed(_install_in_background: Build | None) -> Path:
     """A non-editable install of this checkout, as a user's ``pip install .`` builds it (its
     per-tick modules compiled where a C compiler is: setup.py); no dependencies: this venv has
-    them. Shared by tests/integration/test_install.py and tests/tools/test_compiled.py."""
-    target = tmp_path_factory.mktemp("site")
-    subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-         "--target", str(target), str(ROOT)],
-        check=True, cwd=tmp_path_factory.mktemp("build"), timeout=600,
-        env={**os.environ, "SHOAL_MYPYC_OPT": "0"},  # the same bits, a quicker compile
-    )  # fmt: skip
-    return target
+    them. Shared by tests/integration/test_install.py and tests/tools/test_compiled.py; built
+    from the session's start on (:func:`_install_in_background`)."""
+    build = _install_in_background
+    assert build is not None  # started for every session that collected a test using this
+    try:
+        code = build.proc.wait(timeout=600)
+    except subprocess.TimeoutExpired:
+        os.killpg(build.proc.pid, signal.SIGKILL)
+        raise
+    if code != 0:
+        raise RuntimeError(f"pip install exited {code}:\n{build.log.read_text()[-4000:]}")
+    return build.target
 
 
 # The fast lane, `python -m pytest -m "not slow"`, for the loop of writing code; the README's
