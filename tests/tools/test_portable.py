@@ -47,16 +47,24 @@ def _kernels() -> list[str]:
     return kernels
 
 
-def _run(kernel: str, baseline_simd: bool) -> tuple[str, str]:
+def _start(kernel: str, baseline_simd: bool) -> subprocess.Popen[str]:
     env = dict(os.environ, OPENBLAS_CORETYPE=kernel, OPENBLAS_VERBOSE="2")
     if baseline_simd:  # numpy's own dispatch, down to its baseline too
         env["NPY_DISABLE_CPU_FEATURES"] = "X86_V3 X86_V4 AVX512_ICL AVX512_SPR"
-    proc = subprocess.run(
-        [sys.executable, "-c", CHILD], capture_output=True, text=True, env=env, timeout=300
-    )
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    cores = [ln for ln in (proc.stdout + proc.stderr).splitlines() if ln.startswith("Core:")]
-    lines = [ln for ln in proc.stdout.splitlines() if not ln.startswith("Core:")]
+    return subprocess.Popen(
+        [sys.executable, "-c", CHILD],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+
+
+def _result(proc: subprocess.Popen[str]) -> tuple[str, str]:
+    try:
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        proc.kill()  # no-op once it has exited
+    assert proc.returncode == 0, stderr[-2000:]
+    cores = [ln for ln in (stdout + stderr).splitlines() if ln.startswith("Core:")]
+    lines = [ln for ln in stdout.splitlines() if not ln.startswith("Core:")]
     return (cores[0] if cores else "?"), "\n".join(lines)
 
 
@@ -65,7 +73,9 @@ def test_every_blas_kernel_gives_the_reference_the_same_bits() -> None:
     kernels = _kernels()
     if len(kernels) < 2:
         pytest.skip("this CPU runs only one OpenBLAS kernel")
-    results = {k: _run(k, baseline_simd=(k == "Prescott")) for k in kernels}
+    # One process per kernel, all at once: each is one core's work for a few seconds.
+    procs = {k: _start(k, baseline_simd=(k == "Prescott")) for k in kernels}
+    results = {k: _result(proc) for k, proc in procs.items()}
     used = {core for core, _ in results.values()}
     assert len(used) == len(kernels), results  # each variant really ran another kernel
     digests = {out for _, out in results.values()}
