@@ -57,16 +57,34 @@ def _compiler() -> bool:
     return shutil.which(cc.split()[0]) is not None
 
 
-def _run(code: str, site: Path | None) -> str:
+def _start(code: str, site: Path | None) -> subprocess.Popen[str]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     if site is not None:
         env["PYTHONPATH"] = str(site)
-    out = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600,
-        cwd=Path(__file__).parent,
+    return subprocess.Popen(
+        [sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, cwd=Path(__file__).parent,
     )  # fmt: skip
-    assert out.returncode == 0, out.stderr
-    return out.stdout
+
+
+def _output(proc: subprocess.Popen[str]) -> str:
+    try:
+        stdout, stderr = proc.communicate(timeout=600)
+    finally:
+        proc.kill()  # no-op once it has exited
+    assert proc.returncode == 0, stderr
+    return stdout
+
+
+def _run(code: str, site: Path | None) -> str:
+    return _output(_start(code, site))
+
+
+def _both(code: str, site: Path) -> tuple[str, str]:
+    """``code``'s output from the installed shoal at ``site`` and from this checkout's, run
+    side by side (one core each)."""
+    compiled, pure = _start(code, site), _start(code, None)
+    return _output(compiled), _output(pure)
 
 
 def test_an_installed_shoal_runs_its_compiled_modules(installed: Path) -> None:
@@ -87,10 +105,11 @@ def test_compiled_and_pure_modules_give_the_same_bits(installed: Path) -> None:
     """The installed (compiled) shoal against this checkout's Python modules (an editable
     install, as the README's test command makes, runs them as Python: checked first)."""
     assert all(importlib.import_module(m).__file__.endswith(".py") for m in COMPILED)  # type: ignore[union-attr]
-    compiled = json.loads(_run(DIGESTS + "import json, sys; json.dump(out, sys.stdout)", installed))
+    child = _start(DIGESTS + "import json, sys; json.dump(out, sys.stdout)", installed)
     here: dict[str, Any] = {}
-    exec(DIGESTS, here)  # the same code, in this process
+    exec(DIGESTS, here)  # the same code, in this process, while the child runs it compiled
     pure = here["out"]
+    compiled = json.loads(_output(child))
     assert set(compiled) == {"obstacles", "passage", "crossing", "robotarium", "obstacles/0",
                              "obstacles/1", "crossing/0", "crossing/1", "obstacles/gap/0",
                              "obstacles/unicycle/0"}  # fmt: skip
@@ -127,7 +146,7 @@ def test_the_messages_keep_their_dataclass_behaviour_in_both_builds(installed: P
     """The per-tick records (bus/messages.py, the controller's Memory) have their own
     ``__init__`` for speed: equality, hashing, repr, fields, replace, pickling and copying are
     the dataclass's in either build, and compiled, a field cannot be assigned (``Final``)."""
-    compiled, pure = (json.loads(_run(RECORDS, site)) for site in (installed, None))
+    compiled, pure = (json.loads(out) for out in _both(RECORDS, installed))
     for out in (compiled, pure):
         assert out["equal"] and out["differ"] and out["hash"]
         assert out["pickled"] and out["copied"]
@@ -148,6 +167,6 @@ def test_the_filter_benchmark_sees_the_compiled_controllers_calls(installed: Pat
         "import json; from shoal.tools.bench.filter import bench_filter; "
         "print(json.dumps(bench_filter(repeats=1)))"
     )
-    compiled, pure = (json.loads(_run(code, site)) for site in (installed, None))
+    compiled, pure = (json.loads(out) for out in _both(code, installed))
     assert compiled["active_share"] == pure["active_share"] > 0
     assert compiled["filter_us_active"] > 0 and compiled["sensed_per_call_median"] > 0
