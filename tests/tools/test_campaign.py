@@ -128,6 +128,10 @@ def test_the_same_field_collides_with_algorithm_2_alone() -> None:
     assert judge(field).collided
 
 
+# --jobs 2 where a test is about the fields, not about where they run: a worker per core halves
+# the wall time on CI's two cores, and the outcomes come back in task order either way
+# (tools/campaign/runner.py). The in-process path, --jobs 1, stays with the up-front test's
+# hard campaign, the crossing unicycles here and tests/tools/test_people_campaign.py.
 def _campaign(*args: str) -> tuple[int, dict[str, Any]]:
     result = CliRunner().invoke(main, ["campaign", "--json", *args])
     assert result.exit_code in (0, 1), result.output
@@ -310,7 +314,7 @@ def test_a_hard_campaign_runs_the_generators_fields_in_2d_and_3d(tmp_path: Path)
     """--kind hard: --fields of tools/campaign/hard.py's fields, half in each dimension, their
     own sets with an arrival rate, and a lagging one saved runs as it ran."""
     code, rep = _campaign(
-        "--kind", "hard", "--fields", "4", "--jobs", "1", "--save-lagging", str(tmp_path)
+        "--kind", "hard", "--fields", "4", "--jobs", "2", "--save-lagging", str(tmp_path)
     )  # fmt: skip
     assert code == 0, rep["failures"]
     assert set(rep["sets"]) == {"hard/2d", "hard/3d"}
@@ -336,7 +340,7 @@ def test_a_campaign_with_the_boundary_layer_says_so_with_its_figures() -> None:
         "--seed",
         "73",
         "--jobs",
-        "1",
+        "2",
         "--boundary-layer",
         "2",
     ]
@@ -360,7 +364,7 @@ def test_kinematics_unicycle_turns_the_fields_into_unicycles_facing_anywhere() -
     headings = {tuple(f.initial_headings) for f in fields}
     assert len(headings) == 3  # drawn per field
     assert all(f.control.safety_margin >= f.body_reach for f in fields)
-    code, rep = _campaign("--fields", "4", "--kinematics", "unicycle", "--jobs", "1")
+    code, rep = _campaign("--fields", "4", "--kinematics", "unicycle", "--jobs", "2")
     assert code == 0 and rep["kinematics"] == "unicycle" and rep["sets"]["inside"]["collided"] == 0
 
 
@@ -393,7 +397,7 @@ def test_hard_fields_as_unicycles_are_all_in_the_plane_and_none_collides() -> No
     plain = hard_field(5, 2)
     assert field.obstacles == plain.obstacles and field.path == plain.path
     code, rep = _campaign("--kind", "hard", "--fields", "3", "--kinematics", "unicycle",
-                          "--jobs", "1")  # fmt: skip
+                          "--jobs", "2")  # fmt: skip
     assert code == 0 and set(rep["sets"]) == {"hard/2d"}
     assert rep["sets"]["hard/2d"]["fields"] == 3 and rep["sets"]["hard/2d"]["collided"] == 0
 
