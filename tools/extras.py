@@ -21,6 +21,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "cluster": ("distributed", "dask"),
     "ros2": ("rosbags",),
     "live": ("foxglove",),
+    "physics": ("mujoco",),
 }
 
 

@@ -10,12 +10,13 @@ campaign spends most of its time in this loop.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from typing import Any
 
 from shoal.agent.controller import Controller
 from shoal.bus.messages import AgentState, TickRecord
 from shoal.bus.types import SafetyLayer
 from shoal.world.layers import make_layer
-from shoal.world.plant import Kinematics
+from shoal.world.plant import KINEMATICS, simulated
 from shoal.world.scenario import Scenario
 from shoal.world.step import Report, Step
 from shoal.world.trajectory import Trajectory
@@ -23,13 +24,14 @@ from shoal.world.trajectory import Trajectory
 Progress = Callable[[int], None]
 
 
-def reference_step(scenario: Scenario) -> Step:
+def reference_step(
+    scenario: Scenario, plant: str = KINEMATICS, dynamics: str | None = None
+) -> Step:
     """The tick of ``scenario`` as the reference runs it: the referee (which in lockstep
-    changes nothing) and the world's own kinematics."""
+    changes nothing) and the simulated plant called ``plant`` (world/plant.py ``simulated``)."""
     s = scenario
     layer = make_layer(SafetyLayer.REFEREE, s.params(), s.n, s.dt, s.limits)
-    plant = Kinematics(s.initial_positions, s.initial_headings, s.lookaheads, s.dt)
-    return Step(s, layer, plant)
+    return Step(s, layer, simulated(s, plant, dynamics))
 
 
 def _commands(scenario: Scenario, step: Step) -> Iterator[tuple[int, dict[int, Report]]]:
@@ -50,20 +52,39 @@ def _commands(scenario: Scenario, step: Step) -> Iterator[tuple[int, dict[int, R
         yield k, reports
 
 
-def run(scenario: Scenario) -> Iterator[TickRecord]:
+def run(
+    scenario: Scenario, plant: str = KINEMATICS, dynamics: str | None = None
+) -> Iterator[TickRecord]:
     """Yield every tick's record of ``scenario`` in order, as the world publishes it; stop
     iterating to stop the run early."""
-    step = reference_step(scenario)
+    step = reference_step(scenario, plant, dynamics)
     everyone = range(1, scenario.n + 1)
     for k, reports in _commands(scenario, step):
         yield step.act_recorded(k, reports, everyone)
 
 
-def simulate(scenario: Scenario, *, progress: Progress | None = None) -> Trajectory:
+def simulate(
+    scenario: Scenario,
+    *,
+    progress: Progress | None = None,
+    plant: str = KINEMATICS,
+    dynamics: str | None = None,
+) -> Trajectory:
     """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
-    step = reference_step(scenario)
+    return reference(scenario, progress=progress, plant=plant, dynamics=dynamics)[0]
+
+
+def reference(
+    scenario: Scenario,
+    *,
+    progress: Progress | None = None,
+    plant: str = KINEMATICS,
+    dynamics: str | None = None,
+) -> tuple[Trajectory, dict[str, Any]]:
+    """:func:`simulate`, and its plant's summary entries (a physics run's judgement)."""
+    step = reference_step(scenario, plant, dynamics)
     for k, reports in _commands(scenario, step):
         step.act(k, reports)
         if progress is not None:
             progress(k)
-    return step.finish()
+    return step.finish(), step.plant.report()

@@ -3,15 +3,18 @@ reference simulator and compare every recorded tick, bit for bit."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from shoal.bus.messages import TickRecord
 from shoal.bus.types import Clock
+from shoal.tools.extras import require
 from shoal.tools.log.reader import read_documents, read_ticks, recorded_scenario
 from shoal.tools.log.salvage import LogError, check_log
 from shoal.tools.simulator import run
 from shoal.world.errors import ScenarioError
+from shoal.world.plant import KINEMATICS, PlantError
 
 
 class VerifyError(ValueError):
@@ -51,9 +54,25 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
     recorded = {r.tick: r for r in read_ticks(path)}
     if not recorded:
         raise VerifyError(f"{path}: no tick records")
+    plant, dynamics = docs["scenario"].get("plant", KINEMATICS), docs["scenario"].get("dynamics")
+    if plant != KINEMATICS:
+        require("physics", f"verifying a run with --plant {plant}")
+    try:
+        ticks = run(scenario, str(plant), None if dynamics is None else str(dynamics))
+        return _compare(ticks, recorded, scenario.name, progress)
+    except (PlantError, ScenarioError) as exc:
+        raise VerifyError(f"{path}: the recorded plant cannot run: {exc}") from None
+
+
+def _compare(
+    ticks: Iterator[TickRecord],
+    recorded: dict[int, TickRecord],
+    name: str,
+    progress: Callable[[int, int], None] | None,
+) -> Verdict:
     last = max(recorded)
     matching, first_bad = 0, None
-    for t in run(scenario):
+    for t in ticks:
         if t.tick > last:
             break
         r = recorded.get(t.tick)
@@ -65,4 +84,4 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
             first_bad = t.tick
         if progress is not None:
             progress(t.tick, last)
-    return Verdict(len(recorded), matching, first_bad, scenario.name)
+    return Verdict(len(recorded), matching, first_bad, name)

@@ -24,6 +24,7 @@ import yaml
 from shoal.bus.types import PathSpec, Reshape, Safety, Sinusoid, Vector, Waypoints
 from shoal.geometry.vectors import dot, norm
 from shoal.world.assumptions import check_assumptions
+from shoal.world.dynamics import setup as dynamics_setup
 from shoal.world.errors import ScenarioError
 from shoal.world.movers import Drift, Motion, Person, Route
 from shoal.world.scenario import AgentSetup, Control, Obstacle, RobotSetup, Scenario, Unicycle
@@ -31,7 +32,7 @@ from shoal.world.scenario import AgentSetup, Control, Obstacle, RobotSetup, Scen
 _TOP = {
     "name", "description", "dim", "seed", "dt", "duration", "agent_radius", "tolerance_factor",
     "control", "graph", "agents", "initial_noise", "leader", "obstacles", "reshape", "kinematics",
-    "position_error", "robots",
+    "position_error", "robots", "dynamics",
 }  # fmt: skip
 # No length, time or gain in a scenario is larger: squares and sums stay far from overflow.
 _LARGEST = 1e9
@@ -169,7 +170,9 @@ def scenario_from_dict(
         unicycle=unicycle,
         position_error=_non_negative(data.get("position_error", 0.0), "position_error"),
         robots=_robots(data.get("robots"), len(agents)),
+        dynamics=dynamics_setup(data.get("dynamics")),
     )
+    scenario.robot_dynamics()  # a preset that fits no agent is named now, at load
     check_assumptions(scenario)
     return scenario
 

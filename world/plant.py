@@ -11,11 +11,21 @@ Ctrl-C and when the leader is lost, it stops every robot.
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from shoal.bus.types import Vector
 from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import move
+from shoal.world.scenario import Scenario
+
+KINEMATICS, MUJOCO = "kinematics", "mujoco"
+PLANTS = (KINEMATICS, MUJOCO)  # what --plant chooses from: simulated plants, owning their time
+
+# The moving obstacles' centres at a tick's start and at its end, in scenario order: a plant
+# with bodies in it (world/physics/) walks them along the straight step between.
+Movers = tuple[tuple[Vector, ...], tuple[Vector, ...]]
 
 
 class PlantError(RuntimeError):
@@ -36,6 +46,10 @@ class Observed:
 
 
 class Plant(Protocol):
+    # True: the plant owns simulated time (one tick per send, whatever the wall clock does), so
+    # it serves a lockstep run; False: robots that move on the wall clock.
+    simulated: bool
+
     def wait_ready(self, timeout: float) -> None:
         """Block until every robot has reported a pose; :class:`PlantError` naming those that
         did not within ``timeout`` s."""
@@ -43,10 +57,13 @@ class Plant(Protocol):
     def observe(self) -> Observed:
         """Every agent's point now."""
 
-    def send(self, velocities: FloatArray, headings: FloatArray | None) -> FloatArray | None:
+    def send(
+        self, velocities: FloatArray, headings: FloatArray | None, movers: Movers | None = None
+    ) -> FloatArray | None:
         """Drive each agent's point at ``velocities`` (n, dim) m/s for a tick, from the
-        ``headings`` last observed; what each robot was sent, (n, 3): linear x, linear y,
-        angular z in its own frame (the log records it), or None for a simulated plant."""
+        ``headings`` last observed, while the people walk ``movers``; what each robot was sent,
+        (n, 3): linear x, linear y, angular z in its own frame (the log records it), or None
+        for a simulated plant."""
 
     def stop(self) -> None:
         """A zero command to every robot."""
@@ -61,6 +78,8 @@ class Kinematics:
     :meth:`send`, whatever the wall clock does, so a lockstep run stays deterministic.
     ``lookaheads`` (n,) m: each unicycle's l (0 for a mixed formation's single integrators;
     None: every agent a single integrator); ``headings`` (n,) rad at the start."""
+
+    simulated = True
 
     def __init__(
         self,
@@ -80,7 +99,9 @@ class Kinematics:
     def observe(self) -> Observed:
         return Observed(self.positions, self.headings, frozenset())
 
-    def send(self, velocities: FloatArray, headings: FloatArray | None) -> None:
+    def send(
+        self, velocities: FloatArray, headings: FloatArray | None, movers: Movers | None = None
+    ) -> None:
         self.positions, self.headings = move(
             self.positions, self.headings, velocities, self.lookaheads, self.dt
         )
@@ -90,3 +111,21 @@ class Kinematics:
 
     def report(self) -> dict[str, Any]:
         return {}
+
+
+def simulated(scenario: Scenario, plant: str = KINEMATICS, dynamics: str | None = None) -> Plant:
+    """The simulated plant called ``plant`` for ``scenario``: the world's own kinematics, or
+    MuJoCo moving robots with mass (world/physics/, the ``physics`` extra) as the scenario's
+    ``dynamics:`` section says, its preset replaced by ``dynamics`` if given."""
+    if plant == KINEMATICS:
+        if dynamics is not None:
+            raise PlantError("--dynamics is for robots with mass: add --plant mujoco")
+        s = scenario
+        return Kinematics(s.initial_positions, s.initial_headings, s.lookaheads, s.dt)
+    if plant != MUJOCO:
+        raise PlantError(f"unknown plant {plant!r}: one of {', '.join(PLANTS)}")
+    if importlib.util.find_spec("mujoco") is None:
+        raise PlantError("--plant mujoco needs MuJoCo: pip install 'shoal[physics]'")
+    from shoal.world.physics.engine import Engine
+
+    return Engine(scenario, scenario.robot_dynamics(dynamics))

@@ -31,7 +31,7 @@ from shoal.bus.types import AgentConfig, Clock, SafetyLayer, Waypoints
 from shoal.world.layers import make_layer
 from shoal.world.metrics import summarize
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
-from shoal.world.plant import Kinematics, Observed, Plant, PlantError
+from shoal.world.plant import KINEMATICS, Kinematics, Observed, Plant, PlantError
 from shoal.world.scenario import Scenario
 from shoal.world.step import Report, Step
 from shoal.world.trajectory import Trajectory
@@ -54,7 +54,12 @@ class WorldOptions:
     layer_epoch: float = 0.1  # onboard: s of simulated time between the robots' snapshots
     start_timeout: float = 60.0  # s to wait for every agent (and the logger) to come up
     answer_timeout: float = 30.0  # s to wait for a live agent's command before giving up
-    plant: Plant | None = None  # real robots in place of the kinematics (world/plant.py)
+    plant: Plant | None = (
+        None  # robots or a physics plant in place of the kinematics (world/plant.py)
+    )
+    # The simulated plant's name and --dynamics, as the log records them for `shoal verify`.
+    plant_name: str = KINEMATICS
+    dynamics: str | None = None
 
 
 class World(Declarations):
@@ -92,7 +97,7 @@ class World(Declarations):
                 )
             return Answer(self.keys.config(i), configs[i])
 
-        if options.plant is not None and (options.clock != Clock.REALTIME or options.speed != 1):
+        if self.robots and (options.clock != Clock.REALTIME or options.speed != 1):
             raise WorldAbort("robots move on the wall clock: drive them in realtime at speed 1")
         k = self.keys
         if bus.present(k.alive_world, timeout=1.0):
@@ -110,10 +115,15 @@ class World(Declarations):
         self.scenario_out = bus.publisher(k.scenario)
         self._held += [*self.sensing_out.values(), self.tick_out, self.event_out]
         self._held += [self.summary_out, self.scenario_out]
-        self.robots_out = None if options.plant is None else bus.publisher(k.robots)
+        self.robots_out = bus.publisher(k.robots) if self.robots else None
         if self.robots_out is not None:
             self._held.append(self.robots_out)
         self._held.append(bus.token(k.alive_world))
+
+    @property
+    def robots(self) -> bool:
+        """Real robots (moving on the wall clock) in place of a simulated plant."""
+        return self.options.plant is not None and not self.options.plant.simulated
 
     @property
     def layer(self) -> SafetyLayer:
@@ -126,7 +136,7 @@ class World(Declarations):
         corner and be sent back for the rest of the run (tests/agent/test_leader.py)."""
         config = self.scenario.agent_config(i, self.options.clock)
         path = config.path
-        if self.options.plant is None or not isinstance(path, Waypoints):
+        if not self.robots or not isinstance(path, Waypoints):
             return config
         reach = path.speed * config.dt
         return replace(config, path=replace(path, reach=reach))
@@ -154,11 +164,15 @@ class World(Declarations):
                 self.options.plant.wait_ready(max(deadline - time.monotonic(), 1.0))
             except PlantError as exc:
                 raise WorldAbort(str(exc)) from None
-        self.scenario_out.put(
-            codec.encode_document(
-                "scenario", {"name": self.scenario.name, "yaml": self.scenario.source}
-            )
-        )
+        self.scenario_out.put(codec.encode_document("scenario", self._scenario_document()))
+
+    def _scenario_document(self) -> dict[str, Any]:
+        """The scenario as the log records it: its text, under the name it ran as, and the
+        simulated plant that moved it unless the world's own kinematics did."""
+        doc: dict[str, Any] = {"name": self.scenario.name, "yaml": self.scenario.source}
+        if self.options.plant_name != KINEMATICS:
+            doc |= {"plant": self.options.plant_name, "dynamics": self.options.dynamics}
+        return doc
 
     # -- ticks ----------------------------------------------------------------------------------
 
@@ -242,7 +256,7 @@ class World(Declarations):
             "dropped_messages": self.dropped,
             **step.layer.report(),
             "aborted": self.aborted,
-            **({} if self.options.plant is None else {"pose_holds": step.pose_holds}),
+            **({"pose_holds": step.pose_holds} if self.robots else {}),
             **step.plant.report(),
             **self._agent_reports(),
         }

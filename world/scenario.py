@@ -27,6 +27,7 @@ from shoal.bus.types import (
     gains_of,
 )
 from shoal.geometry.vectors import FloatArray
+from shoal.world.dynamics import Dynamics, DynamicsSetup, of_agents
 from shoal.world.graph import adjacency, communication_graph, diameter
 from shoal.world.limits import limit_sides, outer
 from shoal.world.movers import Motion
@@ -177,6 +178,17 @@ class Scenario:
     unicycle: Unicycle | None = None  # None: single integrators (the paper's model)
     position_error: float = 0.0  # m: e, the bound of every robot's own position estimate's error
     robots: RobotSetup | None = None  # the ROS 2 robots its agents are (docs/ros2.md)
+    dynamics: DynamicsSetup | None = None  # its robots' mass and drive, for a physics plant
+
+    def robot_dynamics(self, preset: str | None = None) -> tuple[Dynamics, ...]:
+        """Each agent's robot with mass (world/dynamics.py): the file's ``dynamics:`` section,
+        its preset replaced by ``preset`` (``--dynamics``) if given."""
+        chosen = (
+            None
+            if self.dynamics is None and preset is None
+            else ((self.dynamics or DynamicsSetup()).resolve(preset))
+        )
+        return of_agents(chosen, tuple(not a.single for a in self.agents), self.dim)
 
     @cached_property
     def position_biases(self) -> FloatArray | None:

@@ -94,8 +94,9 @@ class Step:
         headings = () if seen.headings is None else seen.headings
         self.recorder.add(seen.positions, velocities, said[:4], said[4],
                           crowd.centres, crowd.velocities, headings)  # fmt: skip
-        self.sent = self.plant.send(velocities, seen.headings)
         self.crowd = self.obstacles.advance(crowd)
+        walked = (crowd.centres, self.crowd.centres) if self.obstacles.moving else None
+        self.sent = self.plant.send(velocities, seen.headings, walked)
         return velocities, said, crowd
 
     def finish(self) -> Trajectory:

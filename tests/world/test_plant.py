@@ -52,7 +52,9 @@ class Robots:
         ages = np.full(len(self.positions), 0.001 * len(self.observed))
         return Observed(self.positions.copy(), None, self.stale, ages)
 
-    def send(self, velocities: Any, headings: Any) -> Any:
+    simulated = False  # robots on the wall clock
+
+    def send(self, velocities: Any, headings: Any, movers: Any = None) -> Any:
         if self.fail_after is not None and len(self.sent) >= self.fail_after:
             raise RuntimeError("the robots' link broke")
         self.sent.append(velocities.copy())

@@ -14,6 +14,7 @@ from shoal.bus.runtime import warn
 from shoal.tools.extras import require
 from shoal.world.errors import ScenarioError, ScenarioWarning
 from shoal.world.loader import load_scenario
+from shoal.world.plant import KINEMATICS
 from shoal.world.scenario import Scenario
 
 if TYPE_CHECKING:  # not at run time: it needs the Foxglove SDK, which is optional
@@ -34,6 +35,30 @@ def load_for_cli(name_or_path: str) -> Scenario:
     for w in caught:
         click.echo(f"warning: {w.message}", err=True)
     return scenario
+
+
+def check_plant(
+    scenario: Scenario, plant: str, dynamics: str | None, robots: str = "simulated"
+) -> None:
+    """Refuse a ``--plant`` / ``--dynamics`` choice that cannot run ``scenario``, before anything
+    starts: MuJoCo not installed, a preset that fits none of its agents, ``--dynamics`` without
+    robots with mass, or a physics plant and real robots at once."""
+    if plant == KINEMATICS:
+        if dynamics is not None:
+            raise click.BadParameter(
+                "is for robots with mass: add --plant mujoco", param_hint="--dynamics"
+            )
+        return
+    if robots != "simulated":
+        raise click.BadParameter(
+            f"moves simulated robots; --robots {robots} drives real ones: choose one",
+            param_hint="--plant",
+        )
+    require("physics", f"--plant {plant}")
+    try:
+        scenario.robot_dynamics(dynamics)
+    except ScenarioError as exc:
+        raise click.ClickException(f"scenario {scenario.name}: {exc}") from None
 
 
 def out_file(help: str, *, required: bool = False) -> Callable[[F], F]:

@@ -22,8 +22,8 @@ Row = tuple[str, str]  # a figure's name and its text
 def render_summary(summary: dict[str, Any]) -> str:
     """A short, aligned, human-readable block of the figures that matter."""
     rows = [*_outcome(summary), *_safety(summary)]
-    optional = (("clock", _clock), ("safety layer", _layer), ("robots", _robots),
-                ("agents' reports", _reports))  # fmt: skip
+    optional = (("plant", _plant), ("clock", _clock), ("safety layer", _layer),
+                ("robots", _robots), ("agents' reports", _reports))  # fmt: skip
     for name, text_of in optional:
         text = text_of(summary)
         if text is not None:
@@ -133,6 +133,22 @@ def _layer(summary: dict[str, Any]) -> str | None:
     return None
 
 
+def _plant(summary: dict[str, Any]) -> str | None:
+    """--plant mujoco: the presets, what the engine reported, and how well the robots
+    tracked their commands (collisions, clearances and margins above are the engine's)."""
+    if summary.get("plant") != "mujoco":
+        return None
+    deepest = abs(summary.get("engine_deepest_contact") or 0.0)
+    return (
+        f"mujoco ({summary.get('dynamics')}), {_fmt(summary.get('physics_steps'))} physics steps "
+        f"of {_fmt(1000 * summary.get('physics_step', 0.0), ' ms', 2)}; engine contacts "
+        f"{_fmt(summary.get('engine_contacts'))} (deepest {_fmt(deepest, ' m', 4)}); "
+        f"tracking error p50 {_fmt(summary.get('tracking_error_p50'), ' m/s', 3)} / "
+        f"p99 {_fmt(summary.get('tracking_error_p99'), ' m/s', 3)} / "
+        f"max {_fmt(summary.get('tracking_error_max'), ' m/s', 3)}"
+    )
+
+
 def _robots(summary: dict[str, Any]) -> str | None:
     """--robots ros2: the poses heard and the commands sent to real (or simulated) robots."""
     if summary.get("robot_poses") is None:
@@ -193,6 +209,11 @@ def _margins(summary: dict[str, Any]) -> str:
     text += f"separation {summary['separation_margin']:+.4g} m"
     if summary.get("safety", "filter") != "filter":
         return f"{text} (no filter: no bound)"
+    if summary.get("plant") == "mujoco":
+        return (
+            f"{text} (along the engine's motion; the filter's theorem is for robots that move "
+            "as commanded)"
+        )
     return f"{text} (the filter's theorem: ≥ −{summary.get('contact_slack', 0.0):.1e} m)"
 
 

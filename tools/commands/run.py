@@ -17,12 +17,19 @@ from shoal.bus.runtime import exit_on_signals, warn
 from shoal.bus.secure import Material
 from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.certs import CertError
-from shoal.tools.commands.options import live_options, live_view, load_for_cli, out_file
+from shoal.tools.commands.options import (
+    check_plant,
+    live_options,
+    live_view,
+    load_for_cli,
+    out_file,
+)
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.extras import require
 from shoal.tools.foxglove.export import ExportResult, export_beside, sibling
 from shoal.tools.log.salvage import is_finished
 from shoal.tools.procs.children import (
+    PLANT_OPTIONS,
     ROBOT_OPTIONS,
     AgentSpec,
     WorldSpec,
@@ -102,7 +109,7 @@ def _where_the_log_is(out: Path) -> str:
     help="With --live: start the run only once a viewer has subscribed to one of its topics.",
 )
 @click_options(AgentSpec, only=("drop_rate", "drop_seed", "delay_ms", "jitter_ms"))
-@click_options(WorldSpec, only=("safety_layer", "layer_epoch", *ROBOT_OPTIONS))
+@click_options(WorldSpec, only=("safety_layer", "layer_epoch", *PLANT_OPTIONS, *ROBOT_OPTIONS))
 @click.option(
     "--secure",
     is_flag=True,
@@ -182,6 +189,7 @@ def _plan(params: Mapping[str, Any]) -> RunPlan:
     """The run: its scenario parsed and its ROS 2 robots resolved, once, here; the secured
     mode's material checked; the run id and the log's path decided."""
     scn = load_for_cli(params["scenario"])
+    check_plant(scn, params["plant"], params["dynamics"], params["robots"])
     secure, secure_dir, run_id = params["secure"], params["secure_dir"], params["run_id"]
     if secure and params["connect"] and secure_dir is None:
         raise click.BadParameter(
@@ -212,6 +220,8 @@ def _plan(params: Mapping[str, Any]) -> RunPlan:
         secure_dir=secure_dir,
         force=params["force"],
         ros=_robots(scn, params),
+        plant=params["plant"],
+        dynamics=params["dynamics"],
     )
 
 

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import click
 
-from shoal.tools.commands.options import load_for_cli
+from shoal.tools.commands.options import check_plant, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
-from shoal.tools.simulator import simulate as run_reference
+from shoal.tools.procs.children import PLANT_OPTIONS, WorldSpec, click_options
+from shoal.tools.simulator import reference
 from shoal.world.metrics import summarize
 
 
@@ -23,13 +24,17 @@ from shoal.world.metrics import summarize
     help="Save the trajectories to this .npz file (.npz is added to a name without it).",
 )
 @click.option("--force", is_flag=True, help="Overwrite the --out file if it exists.")
-def simulate(scenario: str, as_json: bool, out: Path | None, force: bool) -> None:
+@click_options(WorldSpec, only=PLANT_OPTIONS)
+def simulate(
+    scenario: str, as_json: bool, out: Path | None, force: bool, plant: str, dynamics: str | None
+) -> None:
     """Run SCENARIO (a built-in name or a YAML file) in one process, exactly.
 
     Every agent's controller and the world's kinematics are called in lockstep, the same
     functions the distributed run calls. Built-ins: see `shoal scenarios`.
     """
     scn = load_for_cli(scenario)
+    check_plant(scn, plant, dynamics)
     if out is not None:
         out = out if out.suffix == ".npz" else out.with_name(out.name + ".npz")
         if out.exists() and not force:
@@ -40,8 +45,10 @@ def simulate(scenario: str, as_json: bool, out: Path | None, force: bool) -> Non
     with click.progressbar(
         length=scn.steps, label=f"simulating {scn.name}", file=sys.stderr, hidden=not show_bar
     ) as bar:
-        traj = run_reference(scn, progress=lambda _k: bar.update(1))
-    summary = json_safe(summarize(scn, traj).as_dict())
+        traj, judged = reference(
+            scn, progress=lambda _k: bar.update(1), plant=plant, dynamics=dynamics
+        )
+    summary = json_safe({**summarize(scn, traj).as_dict(), **judged})
     if out is not None:
         traj.save(out)
     if as_json:

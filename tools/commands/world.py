@@ -14,7 +14,7 @@ from shoal.bus.acl import WORLD
 from shoal.bus.runtime import exit_on_signals
 from shoal.bus.seam import ZenohBus
 from shoal.bus.types import Clock
-from shoal.tools.commands.options import load_for_cli
+from shoal.tools.commands.options import check_plant, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.extras import require
 from shoal.tools.procs.children import WorldSpec, click_options
@@ -25,7 +25,7 @@ from shoal.tools.procs.session import (
     session_config,
 )
 from shoal.world.onboard import Link
-from shoal.world.plant import Plant
+from shoal.world.plant import KINEMATICS, Plant, simulated
 from shoal.world.process import World, WorldAbort, WorldOptions
 from shoal.world.scenario import Scenario
 
@@ -112,9 +112,14 @@ def world(as_json: bool, **params: Any) -> None:
         layer_epoch=spec.layer_epoch,
         start_timeout=spec.start_timeout,
     )
+    check_plant(scn, spec.plant, spec.dynamics, spec.robots)
     with contextlib.ExitStack() as stack:
         plant = stack.enter_context(robots_of(spec, scn))
-        options = dataclasses.replace(options, plant=plant)
+        if spec.plant != KINEMATICS:
+            plant = simulated(scn, spec.plant, spec.dynamics)
+        options = dataclasses.replace(
+            options, plant=plant, plant_name=spec.plant, dynamics=spec.dynamics
+        )
         session = stack.enter_context(client_session(spec, WORLD, "world"))
         try:
             with World(scn, options, ZenohBus(session)) as w:

@@ -22,7 +22,9 @@ import click
 from shoal.bus.errors import WireError
 from shoal.bus.keys import Keys
 from shoal.bus.types import Clock, SafetyLayer
+from shoal.world.dynamics import PRESETS
 from shoal.world.loader import ROS_DISTROS, ROS_POSES
+from shoal.world.plant import KINEMATICS, PLANTS
 
 F = TypeVar("F", bound=Callable[..., Any])
 _ENUMS: dict[str, type[enum.Enum]] = {  # fields' choices (None where the default is)
@@ -300,6 +302,18 @@ class WorldSpec(FaultSpec):
         "robots over rmw_zenoh instead (realtime, speed 1; docs/ros2.md): agent i's pose from "
         "/<prefix><i>/odom, its command as a Twist on /<prefix><i>/cmd_vel.",
     )  # fmt: skip
+    plant: str = option(
+        "--plant", default=KINEMATICS, type=click.Choice(PLANTS),
+        help="What moves the simulated robots: kinematics, the world's own (they move exactly "
+        "as commanded); mujoco, robots with mass in the MuJoCo physics engine, which also "
+        "judges their contacts (the physics extra; docs/physics.md).",
+    )  # fmt: skip
+    dynamics: str | None = option(
+        "--dynamics", default=None, type=click.Choice(list(PRESETS)),
+        help="--plant mujoco: the robots' preset, in place of the scenario's dynamics: section "
+        "(whose overrides still apply) [default: the scenario's, else gritsbot for unicycles "
+        "and holonomic for single integrators].",
+    )  # fmt: skip
     ros_connect: tuple[str, ...] = _ros_connect(
         help="--robots ros2: the ROS 2 router (rmw_zenohd, or `shoal robots --listen`) "
         + _FROM_SCENARIO.format("tcp/127.0.0.1:7447")
@@ -333,6 +347,7 @@ class WorldSpec(FaultSpec):
     )  # fmt: skip
 
 
+PLANT_OPTIONS = ("plant", "dynamics")
 ROBOT_OPTIONS = ("robots", "ros_connect", "ros_domain", "ros_distro", "ros_prefix", "ros_pose",
                  "pose_timeout")  # fmt: skip
 

@@ -91,6 +91,8 @@ class RunPlan:
     )
     force: bool = False  # the logger may replace an existing ``out``
     ros: RosConfig | None = None  # ROS 2 robots (tools/ros2/config.py); None: simulated ones
+    plant: str = "kinematics"  # what moves simulated robots (world/plant.py)
+    dynamics: str | None = None  # --plant mujoco: the robots' preset (world/dynamics.py)
 
     @property
     def faults(self) -> dict[str, Any]:
@@ -186,6 +188,7 @@ def _world(plan: RunPlan, folder: Path, common: Mapping[str, Any]) -> WorldSpec:
         scenario=str(_hand_over(plan.scenario, folder)), name=plan.scenario.name,
         expect=("logger", "monitor"), clock=plan.clock, speed=plan.speed,
         safety_layer=plan.safety_layer, layer_epoch=plan.layer_epoch,
+        plant=plan.plant, dynamics=plan.dynamics,
         start_timeout=plan.start_timeout, **plan.faults, **robots, **common,
     )  # fmt: skip
 

@@ -22,7 +22,7 @@ import numpy as np
 from shoal.geometry.vectors import FloatArray
 from shoal.tools.ros2 import rmw
 from shoal.tools.ros2.node import Heard, RosSession
-from shoal.world.plant import Observed, PlantError
+from shoal.world.plant import Movers, Observed, PlantError
 from shoal.world.unicycle import wheel_command
 
 POSE_TOPICS = {rmw.ODOMETRY: "odom", rmw.POSE_STAMPED: "pose"}
@@ -37,6 +37,8 @@ def zero() -> bytes:
 class Ros2Robots:
     """The robots of ``namespaces`` (agent i's is ``namespaces[i - 1]``) on ``ros``.
     ``lookaheads``: (n,) l per agent (0: holonomic), or None when every agent is."""
+
+    simulated = False  # robots move on the wall clock
 
     def __init__(
         self,
@@ -113,7 +115,9 @@ class Ros2Robots:
         points = body + ell * np.stack([np.cos(yaw), np.sin(yaw)], axis=-1)
         return Observed(points, yaw, stale, ages)
 
-    def send(self, velocities: FloatArray, headings: FloatArray | None) -> FloatArray:
+    def send(
+        self, velocities: FloatArray, headings: FloatArray | None, movers: Movers | None = None
+    ) -> FloatArray:
         twists = self.twists(velocities, headings)
         for i, (vx, vy, wz) in enumerate(twists.tolist()):
             self._cmd[i].put(rmw.twist((vx, vy), wz))

@@ -1,0 +1,150 @@
+"""MuJoCo as a plant (world/physics/): every built-in runs on robots with mass, two runs are the
+same bytes, a crash is a contact the engine reports and the summary counts, and a scenario's
+``dynamics:`` section is checked field by field at load."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from shoal.tools.cli import main
+from shoal.tools.simulator import reference
+from shoal.world.dynamics import PRESETS
+from shoal.world.errors import ScenarioError
+from shoal.world.loader import builtin_names, load_scenario, parse_scenario
+from shoal.world.metrics import summarize
+from shoal.world.plant import MUJOCO, simulated
+
+pytest.importorskip("mujoco", reason="the physics extra: pip install 'shoal[physics]'")
+
+CRASH = """
+name: crash
+description: The paper's law alone drives a follower through an obstacle.
+dt: 0.01
+duration: 6.0
+agent_radius: 0.1
+control: {alpha: 1.0, beta: 0.5, sensing_radius: 0.45, trigger_radius: 0.35, epsilon: 0.05,
+          safety_margin: 0.05, safety: paper}
+graph: {edges: [[1, 2]]}
+agents: [{offset: [0, 0]}, {offset: [0, -1]}]
+leader: {waypoints: [[0, 0], [4, 0]], speed: 0.4}
+obstacles: [{centre: [2, -1], radius: 0.2}]
+"""
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_every_builtin_runs_on_robots_with_mass(name: str) -> None:
+    """Two seconds of each built-in in the engine: the robots start where the scenario puts
+    them, every physics step is judged, and nothing touches."""
+    scn = dataclasses.replace(load_scenario(name), duration=2.0)
+    plant = simulated(scn, MUJOCO)
+    start = plant.observe()
+    assert np.abs(start.positions - scn.initial_positions).max() < 1e-12
+    traj, judged = reference(scn, plant=MUJOCO)
+    assert judged["plant"] == "mujoco" and judged["physics_steps"] == traj.ticks * round(
+        scn.dt / judged["physics_step"]
+    )
+    assert judged["engine_contacts"] == 0 and judged["collisions"] == 0
+    assert np.isfinite([judged["tracking_error_p50"], judged["tracking_error_max"]]).all()
+
+
+def test_two_physics_runs_are_the_same_bytes() -> None:
+    scn = dataclasses.replace(load_scenario("robotarium"), duration=3.0)
+    first, judged = reference(scn, plant=MUJOCO)
+    second, again = reference(scn, plant=MUJOCO)
+    assert first.digest() == second.digest() and judged == again
+
+
+def test_a_crash_is_a_contact_the_engine_reports_and_the_summary_counts() -> None:
+    """The paper's law alone (no safety filter) drives the follower into an obstacle: the
+    engine's contact is the collision, and the figures are the engine's motion's."""
+    scn = parse_scenario(CRASH)
+    traj, judged = reference(scn, plant=MUJOCO)
+    assert judged["engine_contacts"] >= 1 and judged["collisions"] >= 1
+    assert judged["engine_deepest_contact"] < -1e-3  # a real overlap, millimetres deep
+    # the least point-to-edge distance is inside the body radius: the overlap the engine saw
+    assert judged["min_clearance"] < scn.agent_radius
+    # without the engine's judgement the same run would still be a collision by the ticks
+    assert summarize(scn, traj).collisions >= 1
+
+
+def test_a_crash_on_the_kinematic_plant_is_judged_by_the_ticks_only() -> None:
+    """The kinematic plant reports no engine figures (the ticks' own judge the run)."""
+    scn = parse_scenario(CRASH)
+    _, judged = reference(scn)
+    assert judged == {}
+
+
+@pytest.mark.parametrize(
+    ("section", "field", "words"),
+    [
+        ("{preset: segway}", "dynamics.preset", "must be one of gritsbot"),
+        ("{preset: holonomic, mass: -1}", "dynamics.mass", "positive"),
+        ("{preset: holonomic, mass: .nan}", "dynamics.mass", "finite"),
+        ("{preset: holonomic, latency: -0.01}", "dynamics.latency", "non-negative"),
+        ("{preset: holonomic, axle: 0.1}", "dynamics.axle", "not a figure of a holonomic"),
+        ("{preset: holonomic, wheels: 3}", "dynamics.wheels", "unknown"),
+        ("{mass: 3}", "dynamics.preset", "is required"),
+        ("{preset: gritsbot}", "dynamics.preset", "every agent is one of the single"),
+        ("[holonomic]", "dynamics", "must be a mapping"),
+    ],
+)
+def test_a_bad_dynamics_section_is_named_at_load(section: str, field: str, words: str) -> None:
+    text = load_scenario("default").source + f"dynamics: {section}\n"
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text)
+    assert caught.value.field == field and words in str(caught.value)
+
+
+def test_the_files_overrides_apply_to_the_preset_the_command_line_names() -> None:
+    text = load_scenario("default").source + "dynamics: {preset: holonomic, latency: 0.03}\n"
+    scn = parse_scenario(text)
+    robot = scn.robot_dynamics()[0]
+    assert (robot.preset, robot.latency, robot.mass) == (
+        "holonomic",
+        0.03,
+        PRESETS["holonomic"].mass,
+    )
+    heavy = scn.robot_dynamics("holonomic-heavy")[0]
+    assert (heavy.preset, heavy.latency, heavy.mass) == ("holonomic-heavy", 0.03, 10.0)
+
+
+def test_a_mixed_formation_has_wheels_and_bases() -> None:
+    text = load_scenario("robotarium").source.replace(
+        "[-0.4, 0.4]}", "[-0.4, 0.4], kinematics: single}"
+    )
+    robots = parse_scenario(text).robot_dynamics("turtlebot3")
+    assert [r.preset for r in robots] == ["turtlebot3", "holonomic", *["turtlebot3"] * 3]
+
+
+def test_shoal_simulate_with_the_engine_says_which_plant_ran(tmp_path: Path) -> None:
+    path = tmp_path / "crash.yaml"
+    path.write_text(CRASH)
+    runner = CliRunner()
+    got = runner.invoke(main, ["simulate", str(path), "--plant", "mujoco", "--json"])
+    assert got.exit_code == 0, got.output
+    summary = json.loads(got.stdout)
+    assert summary["plant"] == "mujoco" and summary["dynamics"] == "holonomic"
+    assert summary["engine_contacts"] >= 1 and summary["collisions"] >= 1
+    text = runner.invoke(main, ["simulate", str(path), "--plant", "mujoco"]).stdout
+    assert "mujoco (holonomic)" in text and "engine contacts" in text
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--dynamics", "holonomic"], "add --plant mujoco"),
+        (["--plant", "mujoco", "--dynamics", "gritsbot"], "choose a holonomic preset"),
+        (["--plant", "bullet"], "Invalid value for '--plant'"),
+    ],
+)
+def test_a_plant_that_cannot_run_is_refused_before_anything_starts(
+    args: list[str], words: str
+) -> None:
+    got = CliRunner().invoke(main, ["simulate", "default", *args])
+    assert got.exit_code != 0 and words in got.output
