@@ -42,7 +42,7 @@ LOCKSTEP_COLUMNS = (
 )  # fmt: skip
 
 
-def _legend(columns: Sequence[tuple[str, str]]) -> list[str]:
+def legend(columns: Sequence[tuple[str, str]]) -> list[str]:
     width = max(len(name) for name, _ in columns)
     return [f"  {name:<{width}}  {what}" for name, what in columns]
 
@@ -62,7 +62,7 @@ def render_bench(result: Mapping[str, Any]) -> str:
         ))  # fmt: skip
     headers = ("agents", "ticks", "floor t/s", "shoal t/s", "floor/shoal", "p50, p99 ms",
                "CPU µs/tick", "steal")  # fmt: skip
-    lines = ["lockstep runs beside their floor", *table(headers, rows), *_legend(LOCKSTEP_COLUMNS)]
+    lines = ["lockstep runs beside their floor", *table(headers, rows), *legend(LOCKSTEP_COLUMNS)]
     startup = ", ".join(f"{n} agents {s:.1f} s" for n, s in result["startup_s"].items())
     lines += ["", f"start-up (every agent up)   {startup}"]
     rt = result["realtime_5_agents"]

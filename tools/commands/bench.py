@@ -15,12 +15,15 @@ from shoal.tools.bench.drops import bench_drops
 from shoal.tools.bench.filter import bench_filter
 from shoal.tools.bench.swarm import bench as run_bench
 from shoal.tools.bench.table import render_bench, render_filter, render_rows
+from shoal.tools.extras import require
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
+
+_SIZES = "5,10,20,50"
 
 
 @click.command()
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of tables.")
-@click.option("--sizes", default="5,10,20,50", help="Formation sizes, comma-separated.")
+@click.option("--sizes", default=_SIZES, help="Formation sizes, comma-separated.")
 @click.option("--ticks", default=400, help="Ticks per lockstep run (halved above 20 agents).")
 @click.option(
     "--out", type=click.Path(dir_okay=False, path_type=Path), help="Also write the JSON here."
@@ -45,6 +48,13 @@ from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
     "filter_only",
     is_flag=True,
     help="Only the safety filter's CPU per agent-tick, beside the reference simulator's.",
+)
+@click.option(
+    "--physics",
+    "physics_only",
+    is_flag=True,
+    help="Instead: the physics plant's CPU per simulated second at --sizes robots (default "
+    "5,20,50), holonomic and wheeled, beside the kinematic plant's (the physics extra).",
 )
 @click.option(
     "--capacity",
@@ -81,6 +91,7 @@ def bench(
     settle: float,
     repeats: int,
     filter_only: bool,
+    physics_only: bool,
     capacity_only: bool,
     capacity_rates: str,
     ladder: str,
@@ -113,6 +124,13 @@ def bench(
         return
     if filter_only:
         _emit(bench_filter(), out, as_json, render_filter)
+        return
+    if physics_only:
+        require("physics", "shoal bench --physics")
+        from shoal.tools.bench.physics import SIZES, bench_physics, render_physics
+
+        chosen = SIZES if sizes == _SIZES else tuple(_numbers(sizes, int, "--sizes"))
+        _emit(bench_physics(chosen, say=_say), out, as_json, render_physics)
         return
     if drops is not None:
         try:

@@ -96,7 +96,10 @@ class Engine:
         self.half_axle = np.array([r.axle for r in wheels], dtype=np.float64) / 2
         self.top_speed = np.array([r.max_wheel_speed for r in wheels], dtype=np.float64)
         lookaheads = s.lookaheads
+        self.unicycles = lookaheads is not None
         self.lookaheads = np.zeros(s.n) if lookaheads is None else lookaheads.copy()
+        self.wheeled_ell = self.lookaheads[self.wheeled]
+        self.no_headings = np.zeros(0)
         self.start_headings = s.initial_headings.copy()
 
     def _gains(self) -> None:
@@ -130,23 +133,27 @@ class Engine:
         return None
 
     def observe(self) -> Observed:
-        return Observed(*self._points(), frozenset())
+        points, theta = self._points()
+        if not self.unicycles:
+            return Observed(points, None, frozenset())
+        headings = self.start_headings.copy()
+        headings[self.wheeled] = theta
+        return Observed(points, headings, frozenset())
 
-    def _points(self) -> tuple[FloatArray, FloatArray | None]:
-        """Every agent's point (n, dim) and heading (n,) (None without unicycles) now."""
+    def _points(self) -> tuple[FloatArray, FloatArray]:
+        """Every agent's point (n, dim) now, and the wheeled robots' headings (in
+        ``self.wheeled`` order): the yaw of each chassis' orientation, its point l ahead."""
         qpos = self.data.qpos
         points = np.empty((self.scenario.n, self.dim))
         points[self.bases] = qpos[self.base_qpos]
-        headings = self.start_headings.copy()
-        if len(self.wheeled):
-            pose = qpos[self.free_qpos]
-            w, x, y, z = pose[:, 3], pose[:, 4], pose[:, 5], pose[:, 6]
-            theta = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-            ell = self.lookaheads[self.wheeled]
-            points[self.wheeled, 0] = pose[:, 0] + ell * np.cos(theta)
-            points[self.wheeled, 1] = pose[:, 1] + ell * np.sin(theta)
-            headings[self.wheeled] = theta
-        return points, headings if self.scenario.lookaheads is not None else None
+        if not len(self.wheeled):
+            return points, self.no_headings
+        pose = qpos[self.free_qpos]
+        w, x, y, z = pose[:, 3], pose[:, 4], pose[:, 5], pose[:, 6]
+        theta = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        points[self.wheeled, 0] = pose[:, 0] + self.wheeled_ell * np.cos(theta)
+        points[self.wheeled, 1] = pose[:, 1] + self.wheeled_ell * np.sin(theta)
+        return points, theta
 
     def send(
         self, velocities: FloatArray, headings: FloatArray | None, movers: Movers | None = None

@@ -59,6 +59,8 @@ class Judge:
     def physics_step(self, data: mujoco.MjData, points: FloatArray, sub: int) -> None:
         self.points[sub + 1] = points
         self.steps += 1
+        if not self.touching and not data.sensordata.any():  # no robot's body touches anything
+            return
         now: set[tuple[int, int]] = set()
         if data.ncon:
             geoms = data.contact.geom[: data.ncon]

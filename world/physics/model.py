@@ -77,7 +77,12 @@ def layout(scenario: Scenario, robots: tuple[Dynamics, ...]) -> Layout:
     )
     for i, joint in motors:
         parts.append(f'    <motor joint="{joint}{i + 1}" ctrllimited="false"/>')
-    parts += ["  </actuator>", "</mujoco>"]
+    parts += ["  </actuator>", "  <sensor>"]
+    # Each robot's body touching anything (only judged geoms can touch it): a fixed-size
+    # reading per physics step, so the judge parses the contact list only when there is one.
+    for i in range(1, len(robots) + 1):
+        parts.append(f'    <contact geom1="body{i}" num="1" data="found" reduce="mindist"/>')
+    parts += ["  </sensor>", "</mujoco>"]
     return Layout("\n".join(parts) + "\n", timestep, substeps, motors)
 
 
