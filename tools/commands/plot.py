@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from shoal.tools.commands.logs import log_files, run_logs
-from shoal.tools.plot.save import PlotError
+from shoal.tools.plot.save import FIGURE_COUNT, PlotError
 from shoal.tools.plot.save import plot as draw
 from shoal.tools.progress import progress_bar
 
@@ -26,7 +26,7 @@ from shoal.tools.progress import progress_bar
     "only",
     multiple=True,
     help="Draw only this figure (repeatable): trajectories, distances, formation_error, "
-    "consensus, omega.",
+    "consensus, omega, tracking.",
 )
 @click.option("--force", is_flag=True, help="Overwrite figures that exist already.")
 def plot(files: tuple[Path, ...], out: Path, only: tuple[str, ...], force: bool) -> None:
@@ -39,9 +39,10 @@ def plot(files: tuple[Path, ...], out: Path, only: tuple[str, ...], force: bool)
     formation_error  each follower's error against the Theorem 1 / Remark 3 bound
     consensus        σ over time and Algorithm 1's rounds
     omega            when each agent was evading (Ω = 1)
+    tracking         commanded against achieved velocity (robots with mass lag: --plant mujoco)
     """
     logs = run_logs(files, command="plot")
-    with progress_bar(len(logs) * (len(only) or 5), "plotting") as bar:
+    with progress_bar(len(logs) * (len(only) or FIGURE_COUNT), "plotting") as bar:
         for file in logs:
             try:
                 written = draw(

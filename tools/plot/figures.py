@@ -471,10 +471,49 @@ def _runs(flags: np.ndarray[Any, np.dtype[np.bool_]]) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
+def achieved_velocities(traj: Trajectory) -> FloatArray:
+    """(T-1, n, dim) m/s: each agent's point's mean velocity over every tick but the last, from
+    where it was at the tick's start and the next one's, as the plant moved it (the pose after
+    the last tick is not recorded: readers integrate it from the last command)."""
+    moved: FloatArray = np.diff(traj.positions[:-1], axis=0) / traj.dt
+    return moved
+
+
+def tracking(view: RunView) -> Figure:
+    """Each agent's commanded speed against the speed its robot achieved, tick by tick, and the
+    gap |achieved − commanded| between the two vectors. The world's kinematics move every
+    point exactly as commanded (the gap is rounding); robots with mass (``--plant mujoco``)
+    lag, saturate and overshoot, and the gap is what the safety filter's theorem does not
+    cover."""
+    traj = view.traj
+    achieved = achieved_velocities(traj)
+    commanded = traj.velocities[: achieved.shape[0]]
+    times = view.tick_times[: achieved.shape[0]]
+    gap = np.linalg.norm(achieved - commanded, axis=-1)
+    fig = _figure(height=6.0)
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    for i in range(commanded.shape[1]):
+        c = colour(i + 1)
+        top.plot(times, np.linalg.norm(commanded[:, i], axis=-1), color=c, lw=0.8, ls="--")
+        top.plot(times, np.linalg.norm(achieved[:, i], axis=-1), color=c, lw=1.0,
+                 label=agent_name(i + 1))  # fmt: skip
+        bottom.plot(times, np.maximum(gap[:, i], 1e-12), color=c, lw=0.8)
+    top.set_ylabel("speed (m/s): dashed commanded, solid achieved")
+    top.legend(fontsize="small", loc="best")
+    top.grid(True, lw=0.3)
+    bottom.set_yscale("log")
+    bottom.set_ylabel("|achieved − commanded| (m/s)")
+    bottom.set_xlabel("time (s)")
+    bottom.grid(True, which="both", lw=0.3)
+    top.set_title(f"{view.label}: commanded against achieved velocity")
+    return fig
+
+
 FIGURES = {
     "trajectories": trajectories,
     "distances": distances,
     "formation_error": formation_error,
     "consensus": consensus,
     "omega": omega_timeline,
+    "tracking": tracking,
 }

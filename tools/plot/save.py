@@ -17,6 +17,7 @@ class PlotError(ValueError):
 
 
 FORMATS = ("png", "svg")
+FIGURE_COUNT = 6  # tools/plot/figures.py's FIGURES, without importing matplotlib to count them
 
 
 def load_view(path: Path) -> object:
