@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from shoal.bus.runtime import announce_ready, exit_on_signals
-from shoal.tools.commands.options import load_for_cli
+from shoal.tools.commands.options import check_plant, load_for_cli
 from shoal.tools.extras import require
 from shoal.tools.procs.children import RobotsSpec, click_options
 from shoal.tools.procs.session import open_session, session_config
@@ -16,6 +16,7 @@ from shoal.tools.ros2.config import ros_config
 from shoal.tools.ros2.fleet import Fleet, drivers_for
 from shoal.tools.ros2.node import RosSession
 from shoal.tools.ros2.rmw import RmwError
+from shoal.world.plant import KINEMATICS
 
 
 @click.command()
@@ -38,10 +39,17 @@ def robots(**params: Any) -> None:
             param_hint="--jitter-ms",
         )
     scn = load_for_cli(spec.scenario)
+    check_plant(scn, spec.plant, spec.dynamics)
     try:
         drivers = drivers_for(scn, spec.count, spec.cmd_timeout)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="SCENARIO / --count") from None
+    bodies = None
+    if spec.plant != KINEMATICS:  # robots with mass: one engine moves them all
+        from shoal.tools.ros2.physics import EngineBodies
+
+        bodies = EngineBodies(scn, spec.dynamics, spec.cmd_timeout)
+        drivers = [bodies.driver(i) for i in range(len(drivers))]  # type: ignore[misc]
     ros_conf = ros_config(
         scn, connect=spec.connect, domain=spec.domain, distro=spec.distro, prefix=spec.prefix
     )
@@ -70,3 +78,18 @@ def robots(**params: Any) -> None:
                 f"{fleet.published} odometry messages published",
                 err=True,
             )
+            if bodies is not None:
+                click.echo(f"robots: {_judged(bodies)}", err=True)
+
+
+def _judged(bodies: Any) -> str:
+    """What the engine saw of the robots with mass, the line ``shoal robots`` ends with."""
+    got = bodies.engine.report()
+    guard, apart = got.get("guard_margin"), got.get("separation_margin")
+    return (
+        f"mujoco ({got['dynamics']}), {got['physics_steps']} physics steps, "
+        f"{bodies.lagged_s:.3f} s lost to a slow machine; engine contacts "
+        f"{got['engine_contacts']} (deepest {abs(got['engine_deepest_contact']):.4f} m); "
+        f"margins guard {'—' if guard is None else f'{guard:+.4f} m'}, separation "
+        f"{'—' if apart is None else f'{apart:+.4f} m'}"
+    )

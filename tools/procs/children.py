@@ -259,6 +259,19 @@ class LoggerSpec(ClientSpec):
     force: bool = option("--force", default=False, is_flag=True, help="Overwrite OUT if it exists.")
 
 
+def _plant(help: str) -> Any:
+    return option("--plant", default=KINEMATICS, type=click.Choice(PLANTS), help=help)
+
+
+def _dynamics() -> Any:
+    return option(
+        "--dynamics", default=None, type=click.Choice(list(PRESETS)),
+        help="--plant mujoco: the robots' preset, in place of the scenario's dynamics: section "
+        "(whose overrides still apply) [default: the scenario's, else gritsbot for unicycles "
+        "and holonomic for single integrators; docs/physics.md].",
+    )  # fmt: skip
+
+
 @dataclass(frozen=True, kw_only=True)
 class WorldSpec(FaultSpec):
     """``shoal world``: the world process of a run. Its ``--ros-*`` options, when given, are
@@ -302,18 +315,12 @@ class WorldSpec(FaultSpec):
         "robots over rmw_zenoh instead (realtime, speed 1; docs/ros2.md): agent i's pose from "
         "/<prefix><i>/odom, its command as a Twist on /<prefix><i>/cmd_vel.",
     )  # fmt: skip
-    plant: str = option(
-        "--plant", default=KINEMATICS, type=click.Choice(PLANTS),
+    plant: str = _plant(
         help="What moves the simulated robots: kinematics, the world's own (they move exactly "
         "as commanded); mujoco, robots with mass in the MuJoCo physics engine, which also "
-        "judges their contacts (the physics extra; docs/physics.md).",
-    )  # fmt: skip
-    dynamics: str | None = option(
-        "--dynamics", default=None, type=click.Choice(list(PRESETS)),
-        help="--plant mujoco: the robots' preset, in place of the scenario's dynamics: section "
-        "(whose overrides still apply) [default: the scenario's, else gritsbot for unicycles "
-        "and holonomic for single integrators].",
-    )  # fmt: skip
+        "judges their contacts (the physics extra; docs/physics.md)."
+    )
+    dynamics: str | None = _dynamics()
     ros_connect: tuple[str, ...] = _ros_connect(
         help="--robots ros2: the ROS 2 router (rmw_zenohd, or `shoal robots --listen`) "
         + _FROM_SCENARIO.format("tcp/127.0.0.1:7447")
@@ -408,6 +415,12 @@ class RobotsSpec(ChildSpec):
         help="Seconds without a cmd_vel after which a robot stops, as a real driver does.",
     )  # fmt: skip
     seed: int = option("--seed", default=0, help="Seed of the odometry delays.")
+    plant: str = _plant(
+        help="What moves the robots: kinematics, exactly as commanded (clamped to the "
+        "scenario's limits); mujoco, robots with mass in the MuJoCo physics engine on the wall "
+        "clock, which also judges their contacts (the physics extra; docs/physics.md)."
+    )
+    dynamics: str | None = _dynamics()
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -60,7 +60,7 @@ class Engine:
         self.setpoint, self.integral = np.zeros(nu), np.zeros(nu)
         self.queue: deque[tuple[int, FloatArray]] = deque()  # (physics step sent, set-points)
         self.step_count = 0
-        self.last_command = 0
+        self.heard = np.zeros(nu, dtype=np.int64)  # the physics step of each motor's last command
         self.judge = Judge(s, self.model, self.substeps)
 
     # -- the model's addresses and the loops' gains --------------------------------------------
@@ -82,6 +82,14 @@ class Engine:
         ).reshape(-1, s.dim)
         free = [m.joint(f"free{i + 1}").qposadr[0] for i in self.wheeled]
         self.free_qpos = np.asarray(free, dtype=np.int64)[:, None] + np.arange(7)
+        free_dof = [m.joint(f"free{i + 1}").dofadr[0] for i in self.wheeled]
+        self.free_dof = np.asarray(free_dof, dtype=np.int64)[:, None] + np.arange(6)
+        self.base_dof = np.array(
+            [[m.joint(f"{a}{i + 1}").dofadr[0] for a in axes] for i in self.bases], dtype=np.int64
+        ).reshape(-1, s.dim)
+        yaws = [f"yaw{i + 1}" for i in self.bases] if s.dim == 2 else []
+        self.yaw_qpos = np.array([m.joint(j).qposadr[0] for j in yaws], dtype=np.int64)
+        self.yaw_dof = np.array([m.joint(j).dofadr[0] for j in yaws], dtype=np.int64)
         self.owner = np.array([i for i, _ in motors], dtype=np.int64)
         self.ctrl_dof = np.array(
             [m.joint(f"{j}{i + 1}").dofadr[0] for i, j in motors], dtype=np.int64
@@ -161,14 +169,21 @@ class Engine:
         """One tick of ``velocities`` (n, dim) m/s for the agents' points: the robots' set-points
         (module docstring), then the tick's physics steps."""
         self._command(self._setpoints(velocities, headings))
-        start, _ = self._points()
-        self.judge.begin(start, velocities)
-        for sub in range(self.substeps):
+        self.run(self.substeps, velocities, movers)
+
+    def run(
+        self, steps: int, commanded: FloatArray | None = None, movers: Movers | None = None
+    ) -> None:
+        """``steps`` physics steps on the set-points the motors have, each judged; the people
+        walk ``movers`` meanwhile; ``commanded`` (n, dim), the points' velocities the steps
+        were to achieve (for the tracking error; None: not tracked)."""
+        self.judge.begin(self._points()[0], commanded, steps)
+        for sub in range(steps):
             if movers is not None:
-                self._walk(movers, (sub + 1) / self.substeps)
+                self._walk(movers, (sub + 1) / steps)
             self._physics_step()
             self.judge.physics_step(self.data, self._points()[0], sub)
-        self.judge.end(self._points()[0], self.dt)
+        self.judge.end(self._points()[0], steps * self.timestep)
 
     def stop(self) -> None:
         """Zero set-points from now (the engine does not step until the next :meth:`send`)."""
@@ -178,6 +193,56 @@ class Engine:
         """Let ``ticks`` ticks pass with no command (the robots' own timeouts stop them)."""
         for _ in range(ticks * self.substeps):
             self._physics_step()
+
+    # -- robots driven by twists (a ROS 2 fleet on the wall clock: tools/ros2/physics.py) -----
+
+    def hold(self, agent: int, twist: tuple[float, float, float]) -> None:
+        """Agent ``agent``'s (0-based) robot takes a Twist in its own frame — linear x, linear
+        y, angular z — as a driver does: a wheeled robot its linear x and angular z (its wheel
+        speeds scaled down together to their limit), a base its linear x and y (its yaw is
+        free). Its other motors, and every other robot's, keep their set-points."""
+        vx, vy, wz = twist
+        out = np.zeros(self.model.nu)
+        motors = self.owner == agent
+        row = np.flatnonzero(self.wheeled == agent)
+        if row.size:
+            k = int(row[0])
+            left = (vx - wz * self.half_axle[k]) / self.rim[k]
+            right = (vx + wz * self.half_axle[k]) / self.rim[k]
+            scale = min(1.0, self.top_speed[k] / max(abs(left), abs(right), 1e-300))
+            out[self.left[k]], out[self.right[k]] = scale * left, scale * right
+        else:
+            yaw = self.body_poses()[agent, 2]
+            c, s = np.cos(yaw), np.sin(yaw)
+            world = (c * vx - s * vy, s * vx + c * vy, 0.0)[: self.dim]
+            out[motors] = world
+        self._command(out, motors)
+
+    def body_poses(self) -> FloatArray:
+        """(n, 3) every robot's body: x, y (m) and yaw (rad) — a wheeled robot's axle midpoint,
+        a base's centre (its free yaw joint's angle)."""
+        d, out = self.data, np.zeros((self.scenario.n, 3))
+        out[self.bases, :2] = d.qpos[self.base_qpos[:, :2]]
+        out[self.bases, 2] = d.qpos[self.yaw_qpos]
+        if len(self.wheeled):
+            pose = d.qpos[self.free_qpos]
+            w, x, y, z = pose[:, 3], pose[:, 4], pose[:, 5], pose[:, 6]
+            out[self.wheeled, :2] = pose[:, :2]
+            out[self.wheeled, 2] = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return out
+
+    def body_twists(self) -> FloatArray:
+        """(n, 3) every robot's measured velocity in its own frame: linear x, y (m/s) and
+        angular z (rad/s), as its odometry reports it."""
+        d, poses = self.data, self.body_poses()
+        world = np.zeros((self.scenario.n, 3))
+        world[self.bases, :2] = d.qvel[self.base_dof[:, :2]]
+        world[self.bases, 2] = d.qvel[self.yaw_dof]
+        world[self.wheeled, :2] = d.qvel[self.free_dof[:, :2]]
+        world[self.wheeled, 2] = d.qvel[self.free_dof[:, 5]]  # the free joint's angular z
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        return np.stack([c * world[:, 0] + s * world[:, 1], -s * world[:, 0] + c * world[:, 1],
+                         world[:, 2]], axis=1)  # fmt: skip
 
     def report(self) -> dict[str, Any]:
         """The summary of a physics run: which plant and presets, and the judgement of the
@@ -206,11 +271,15 @@ class Engine:
             out[self.left], out[self.right] = scale * left, scale * right
         return out
 
-    def _command(self, setpoints: FloatArray) -> None:
+    def _command(self, setpoints: FloatArray, motors: Any = slice(None)) -> None:
+        """New set-points for ``motors`` (an index of the actuators; default all of them),
+        acted on once each motor's latency has passed; the others keep theirs."""
         now = self.step_count
-        self.queue.append((now, setpoints))
+        latest = self.queue[-1][1].copy() if self.queue else np.zeros(self.model.nu)
+        latest[motors] = setpoints[motors]
+        self.queue.append((now, latest))
         self.changes.update(now + int(lag) for lag in np.unique(self.latency))
-        self.last_command = now
+        self.heard[motors] = now
 
     def _physics_step(self) -> None:
         """The motors' PI loops on the set-points they have now, then one engine step. Kept to
@@ -218,8 +287,8 @@ class Engine:
         d, now = self.data, self.step_count
         if now in self.changes:
             self._due(now)
-        if now - self.last_command >= self.first_timeout:
-            self.setpoint[now - self.last_command >= self.timeout] = 0.0
+        if now - int(self.heard.min(initial=now)) >= self.first_timeout:
+            self.setpoint[now - self.heard >= self.timeout] = 0.0
         error = self.setpoint - d.qvel[self.ctrl_dof]
         raw = self.kp * error + self.ki * self.integral
         force = np.minimum(np.maximum(raw, self.floor), self.limit)

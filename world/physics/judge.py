@@ -43,6 +43,7 @@ class Judge:
         self.upper = np.triu_indices(s.n, 1)
         self.points = np.empty((substeps + 1, s.n, s.dim))
         self.commanded = np.zeros((s.n, s.dim))
+        self.tracked = False
         self.touching: set[tuple[int, int]] = set()
         self.contacts: list[tuple[int, int, float]] = []  # onsets: (agent, other, physics step)
         self.at_fault = 0  # onsets with a person the robot was driving towards, or any other
@@ -52,9 +53,14 @@ class Judge:
         self.distance = np.inf  # m: least distance between two agents' points
         self.tracking: list[FloatArray] = []  # per tick, per agent: |achieved − commanded|, m/s
 
-    def begin(self, points: FloatArray, commanded: FloatArray) -> None:
+    def begin(self, points: FloatArray, commanded: FloatArray | None, steps: int) -> None:
+        """A stretch of ``steps`` physics steps from ``points``, meant to move the points at
+        ``commanded`` (None: no tracking error is taken)."""
+        if self.points.shape[0] != steps + 1:
+            self.points = np.empty((steps + 1, self.n, self.dim))
         self.points[0] = points
-        self.commanded = commanded
+        self.commanded = np.zeros((self.n, self.dim)) if commanded is None else commanded
+        self.tracked = commanded is not None
 
     def physics_step(self, data: mujoco.MjData, points: FloatArray, sub: int) -> None:
         self.points[sub + 1] = points
@@ -87,7 +93,7 @@ class Judge:
         approach = float(self.commanded[agent] @ towards) / size if size > 0 else 0.0
         self.at_fault += approach > TOWARDS
 
-    def end(self, points: FloatArray, dt: float) -> None:
+    def end(self, points: FloatArray, elapsed: float) -> None:
         path = self.points
         if len(self.radii):
             gaps = np.linalg.norm(path[:, :, None, :] - self.centres, axis=-1) - self.radii
@@ -95,11 +101,12 @@ class Judge:
         if self.n > 1:
             apart = np.linalg.norm(path[:, self.upper[0]] - path[:, self.upper[1]], axis=-1)
             self.distance = min(self.distance, float(apart.min()))
-        achieved = (points - path[0]) / dt
-        self.tracking.append(np.linalg.norm(achieved - self.commanded, axis=-1))
+        if self.tracked:
+            achieved = (points - path[0]) / elapsed
+            self.tracking.append(np.linalg.norm(achieved - self.commanded, axis=-1))
 
     def report(self) -> dict[str, Any]:
-        errors = np.concatenate(self.tracking) if self.tracking else np.zeros(1)
+        errors = np.concatenate(self.tracking) if self.tracking else None
         clearance = None if not np.isfinite(self.clearance) else self.clearance
         out: dict[str, Any] = {
             "collisions": self.at_fault,
@@ -108,9 +115,9 @@ class Judge:
             "physics_steps": self.steps,
             "min_clearance": clearance,
             "guard_margin": None if clearance is None else clearance - self.rho,
-            "tracking_error_p50": float(np.percentile(errors, 50)),
-            "tracking_error_p99": float(np.percentile(errors, 99)),
-            "tracking_error_max": float(errors.max()),
+            "tracking_error_p50": None if errors is None else float(np.percentile(errors, 50)),
+            "tracking_error_p99": None if errors is None else float(np.percentile(errors, 99)),
+            "tracking_error_max": None if errors is None else float(errors.max()),
         }
         if self.n > 1:
             out["min_interagent_distance"] = self.distance
