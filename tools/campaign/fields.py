@@ -37,9 +37,11 @@ from shoal.bus.types import PathSpec, Sinusoid, Waypoints
 from shoal.geometry.path import path_position, peak_speed
 from shoal.geometry.vectors import FloatArray, shaped
 from shoal.world import assumptions
+from shoal.world.dynamics import of_agents
 from shoal.world.errors import ScenarioError, ScenarioWarning, WorldError
 from shoal.world.graph import adjacency, reached_from_leader
 from shoal.world.loader import parse_scenario, read_obstacles, scenario_from_dict
+from shoal.world.plant import KINEMATICS
 from shoal.world.scenario import Obstacle, Scenario, Unicycle
 
 
@@ -125,6 +127,13 @@ class FieldOptions:
         it, docs/safety.md, Position error); None keeps the base's.
     speed_limit : m/s; replaces the base's ``control.speed_limit`` (a robot's own cap; the far
         test of each robot's own safety layer has to believe it, docs/safety.md).
+    plant : what moves the robots (world/plant.py): ``kinematics``, or ``mujoco``, robots with
+        mass; then the field's YAML carries their ``dynamics:`` section (:func:`robots_section`),
+        so that ``shoal simulate --plant mujoco FILE`` reruns it.
+    dynamics : the robots' preset (world/dynamics.py ``PRESETS``) with ``plant`` mujoco; None:
+        the default for the field's agents (gritsbot for unicycles, holonomic otherwise).
+    latency : s from a command to the motors acting on it, with ``plant`` mujoco; None: the
+        preset's.
     """
 
     length: float = 14.0
@@ -142,6 +151,20 @@ class FieldOptions:
     kinematics: str | None = None
     speed_limit: float | None = None
     position_error: float | None = None
+    plant: str = KINEMATICS
+    dynamics: str | None = None
+    latency: float | None = None
+
+
+def robots_section(opts: FieldOptions, unicycles: bool) -> dict[str, Any] | None:
+    """A field's ``dynamics:`` section for ``opts`` (None for the kinematic plant): the preset
+    named, the default for the field's agents (``unicycles`` or single integrators) otherwise,
+    and the latency if ``opts`` sets one. Written even where it names the default, so that the
+    saved file says which robots ran."""
+    if opts.plant == KINEMATICS:
+        return None
+    name = opts.dynamics or of_agents(None, (unicycles,), 2)[0].preset
+    return {"preset": name, **({} if opts.latency is None else {"latency": opts.latency})}
 
 
 # -- what a field breaks ------------------------------------------------------------------------
@@ -229,7 +252,7 @@ def make_field(
     data["obstacles"] = [{"centre": list(o.centre), "radius": o.radius} for o in placer.obstacles]
     if mode == "reach":
         data["control"] = _short_sight(placer.scenario(), rng)
-    text = _header(base, seed, mode) + yaml.safe_dump(data, sort_keys=False)
+    text = _header(base, seed, mode, opts.plant) + yaml.safe_dump(data, sort_keys=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ScenarioWarning)
         field = load_field(text) if mode in REFUSED else parse_scenario(text)
@@ -249,7 +272,7 @@ def _confirm(field: Scenario, mode: str) -> None:
         raise FieldError(f"{field.name}: the gap is passable within σ_max")
 
 
-def _header(base: Scenario, seed: int, mode: str) -> str:
+def _header(base: Scenario, seed: int, mode: str, plant: str = KINEMATICS) -> str:
     if mode == "inside":
         what = "inside the paper's assumptions (every load-time check passes)"
     else:
@@ -259,8 +282,13 @@ def _header(base: Scenario, seed: int, mode: str) -> str:
     return (
         f"# A random obstacle field of `shoal campaign` (tools/campaign/fields.py): "
         f"base {base.name!r}, seed {seed}, mode {mode}.\n# {what}.\n"
-        f"# Reproduce: {rerun} THIS_FILE\n"
+        f"# Reproduce: {rerun}{plant_option(plant)} THIS_FILE\n"
     )
+
+
+def plant_option(plant: str) -> str:
+    """What a rerun command needs to run a field on ``plant`` (its robots are in the file)."""
+    return "" if plant == KINEMATICS else f" --plant {plant}"
 
 
 def _cut_path(path: PathSpec, length: float) -> tuple[PathSpec, float]:
@@ -369,6 +397,7 @@ def _skeleton(
     c = base.control
     speed = _speed_limit(base, opts)
     robot = _robot(base, opts, speed)
+    robots = robots_section(opts, robot is not None)  # with mass: the plant's, not the law's
     k = 1 if robot is None else unicycle_ticks(base.dt, robot, speed)
     dt = base.dt / k  # exactly base.dt for k = 1
     ticks = math.ceil(duration / dt - 1e-9)
@@ -403,6 +432,7 @@ def _skeleton(
             else ({"position_error": base.position_error} if base.position_error else {})
         ),
         **({} if robot is None else unicycle_fields(base, seed, robot)),
+        **({} if robots is None else {"dynamics": robots}),
         "leader": _path_data(path),
         "reshape": [
             {"at": round(r.tick * base.dt, 9), "scale": r.scale, "rotate": r.rotate}

@@ -53,13 +53,20 @@ _TAG = 0x4A8D  # keeps this generator's random streams apart from fields.py's
 
 
 def hard_field(
-    seed: int, dim: int = 2, *, boundary_layer: float = 0.0, unicycles: bool = False
+    seed: int,
+    dim: int = 2,
+    *,
+    boundary_layer: float = 0.0,
+    unicycles: bool = False,
+    robots: dict[str, Any] | None = None,
 ) -> Scenario:
     """Hard field number ``seed`` in ``dim`` dimensions (2 or 3). ``boundary_layer`` K > 0:
     the same field with the optional boundary layer φ = K·β·dt (sat(e/φ) in place of the
     paper's sign(e)); the field drawn does not depend on it. ``unicycles`` (2-D only): every
     agent a unicycle (fields.py's ``unicycle_for``, headings drawn per field); the field is the
-    one drawn for single integrators unless its skeleton does not admit them."""
+    one drawn for single integrators unless its skeleton does not admit them. ``robots``: the
+    field's ``dynamics:`` section for a physics plant (fields.py ``robots_section``), which
+    does not change the field drawn either."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim}")
     for sub in range(SKELETONS):
@@ -71,18 +78,23 @@ def hard_field(
         if boundary_layer > 0:
             c = data["control"]
             c["boundary_layer"] = _round(boundary_layer * c["beta"] * data["dt"])
-        text = _header(seed, dim) + yaml.safe_dump(data, sort_keys=False, width=100)
+        if robots is not None:
+            data["dynamics"] = robots
+        text = _header(seed, dim, robots is not None) + yaml.safe_dump(
+            data, sort_keys=False, width=100
+        )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ScenarioWarning)
             return parse_scenario(text, default_name=data["name"])
     raise FieldError(f"hard field {seed} ({dim}-D): no skeleton the loader accepts")
 
 
-def _header(seed: int, dim: int) -> str:
+def _header(seed: int, dim: int, physics: bool = False) -> str:
+    plant = " --plant mujoco" if physics else ""
     return (
         "# A hard field of `shoal campaign --kind hard` (tools/campaign/hard.py): "
         f"seed {seed}, {dim}-D.\n# Admissible: every load-time check passes.\n"
-        "# Reproduce: shoal simulate THIS_FILE\n"
+        f"# Reproduce: shoal simulate{plant} THIS_FILE\n"
     )
 
 

@@ -16,10 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from shoal.tools.campaign.fields import BREACHES, REFUSED
+from shoal.tools.campaign.fields import BREACHES, REFUSED, plant_option
 from shoal.tools.campaign.hard import HARD_MODES
 from shoal.tools.campaign.runner import Outcome
 from shoal.world.arrival import CAUSES
+from shoal.world.plant import KINEMATICS
 
 
 def _quantiles(values: Iterable[float]) -> dict[str, float | None]:
@@ -43,13 +44,15 @@ def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
         o.convergence_time / o.convergence_bound for o in bounded if o.convergence_time is not None
     ]
     causes = Counter(o.not_arrived for o in ran if not o.arrived)
+    physics = any(o.plant != KINEMATICS for o in ran)
     return {
         "fields": len(ran),
         "not_drawn": len(outcomes) - len(ran),
         "collided": sum(o.collided for o in ran),
-        "obstacle_collided": sum(o.obstacle_collisions > 0 for o in ran),
-        "agent_collided": sum(o.agent_collisions > 0 for o in ran),
-        "collisions": sum(o.obstacle_collisions + o.agent_collisions for o in ran),
+        # the engine does not say which kind a collision was
+        "obstacle_collided": None if physics else sum(o.obstacle_collisions > 0 for o in ran),
+        "agent_collided": None if physics else sum(o.agent_collisions > 0 for o in ran),
+        "collisions": sum(o.collisions for o in ran),
         "min_clearance": _quantiles(o.min_clearance for o in ran),
         "min_interagent_distance": _quantiles(o.min_interagent_distance for o in ran),
         "guard_margin": _least(o.guard_margin for o in ran),
@@ -75,7 +78,37 @@ def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
         "livelocked_fields": sum(o.livelocks > 0 for o in ran),
         "longest_livelock": max((o.longest_livelock for o in ran), default=0.0),
         "cpu_s": round(sum(o.seconds for o in ran), 2),
+        **(engine_figures(ran) if physics else {}),
     }
+
+
+def engine_figures(ran: Sequence[Outcome]) -> dict[str, Any]:
+    """A set's figures on robots with mass: the plant and presets; engine contacts (fields
+    with any, all, the deepest, m ≤ 0); fields that entered the guard (guard margin < 0) or the
+    separation band (separation margin < 0), the worst depths being ``guard_margin`` and
+    ``separation_margin``; tracking error, m/s: the medians over fields of each run's median
+    and 99th percentile (over its agent-ticks), and the largest anywhere."""
+    return {
+        "plant": ", ".join(sorted({o.plant for o in ran})),
+        "dynamics": ", ".join(sorted({p for o in ran for p in o.dynamics.split(", ") if p})),
+        "engine_contact_fields": sum(o.engine_contacts > 0 for o in ran),
+        "engine_contacts": sum(o.engine_contacts for o in ran),
+        "engine_deepest_contact": min((o.engine_deepest_contact for o in ran), default=0.0),
+        "entered_guard": sum(o.guard_margin < 0 for o in ran),
+        "entered_separation": sum(o.separation_margin < 0 for o in ran),
+        "tracking_error_p50": _median(o.tracking_error_p50 for o in ran),
+        "tracking_error_p99": _median(o.tracking_error_p99 for o in ran),
+        "tracking_error_max": max(_finite(o.tracking_error_max for o in ran), default=None),
+    }
+
+
+def _finite(values: Iterable[float]) -> list[float]:
+    return [x for x in values if math.isfinite(x)]
+
+
+def _median(values: Iterable[float]) -> float | None:
+    finite = _finite(values)
+    return float(np.median(finite)) if finite else None
 
 
 def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any]:
@@ -101,7 +134,13 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
         {"set": o.set_name, "seed": o.seed, "name": o.name, "obstacle_collisions":
          o.obstacle_collisions, "agent_collisions": o.agent_collisions,
          "min_clearance": o.min_clearance, "min_interagent_distance": o.min_interagent_distance,
-         "rerun": "campaign --rerun" if o.mode in REFUSED else "simulate", "safety": o.safety}
+         "rerun": ("campaign --rerun" if o.mode in REFUSED else "simulate")
+         + plant_option(o.plant), "safety": o.safety,
+         **({} if o.plant == KINEMATICS else {  # the engine does not split them by kind
+             "obstacle_collisions": None, "agent_collisions": None,
+             "collisions": o.engine_collisions, "engine_contacts": o.engine_contacts,
+             "engine_deepest_contact": o.engine_deepest_contact,
+             "guard_margin": o.guard_margin, "separation_margin": o.separation_margin})}
         for o in outcomes if o.error is None and o.collided
     ]  # fmt: skip
     lagging = [
@@ -135,6 +174,10 @@ LAGGING_SHOWN = 20
 
 def _num(value: Any, digits: int = 3) -> str:
     return "—" if value is None else f"{value:.{digits}f}"
+
+
+def _int(value: int | None) -> str:
+    return "—" if value is None else str(value)
 
 
 def _rate(part: int, whole: int) -> str:
@@ -171,10 +214,42 @@ COLUMNS = (
 )  # fmt: skip
 
 
-def legend() -> str:
+# The columns of the robots-with-mass table (a physics campaign's only).
+ENGINE_COLUMNS = (
+    ("engine contacts, fields", "contact onsets the engine reported, and the fields with any"),
+    ("deepest", "the deepest penetration in any of them, m"),
+    ("in guard, in sep. band", "fields whose guard margin / separation margin went below 0"),
+    ("tracking p50, p99, max", "|achieved − commanded| velocity of a point per agent-tick, "
+     "m/s: medians over fields of each run's p50 and p99, the largest anywhere"),
+)  # fmt: skip
+
+
+def legend(columns: tuple[tuple[str, str], ...] = COLUMNS) -> str:
     """The columns of :func:`render`'s tables, one line each."""
-    width = max(len(name) for name, _ in COLUMNS)
-    return "\n".join(f"  {name:<{width}}  {what}" for name, what in COLUMNS)
+    width = max(len(name) for name, _ in columns)
+    return "\n".join(f"  {name:<{width}}  {what}" for name, what in columns)
+
+
+def _engine_table(rep: dict[str, Any]) -> list[str]:
+    """On robots with mass: per set, the presets, the engine's contacts, the fields that
+    entered the guard or the separation band (the depths are the safety table's margins), and
+    how well the robots tracked their commands. Nothing for the kinematic plant."""
+    sets = {mode: s for mode, s in rep["sets"].items() if "engine_contacts" in s}
+    if not sets:
+        return []
+    rows = [
+        f"{'set':<12} {'robots':<16} {'engine contacts':>15} {'fields':>6} {'deepest':>8}   "
+        f"{'in guard':>8} {'in sep. band':>12}   {'tracking p50':>12} {'p99':>6} {'max':>6}"
+    ]
+    for mode, s in sets.items():
+        rows.append(
+            f"{mode:<12} {s['dynamics']:<16} {s['engine_contacts']:>15} "
+            f"{s['engine_contact_fields']:>6} {_num(s['engine_deepest_contact'], 4):>8}   "
+            f"{s['entered_guard']:>8} {s['entered_separation']:>12}   "
+            f"{_num(s['tracking_error_p50']):>12} {_num(s['tracking_error_p99'], 2):>6} "
+            f"{_num(s['tracking_error_max'], 2):>6}"
+        )
+    return [*rows, ""]
 
 
 def render(rep: dict[str, Any]) -> str:
@@ -195,8 +270,8 @@ def render(rep: dict[str, Any]) -> str:
     for mode, s in rep["sets"].items():
         clr = s["min_clearance"]
         safety.append(
-            f"{mode:<12} {s['fields']:>6} {s['collided']:>8} {s['obstacle_collided']:>8} "
-            f"{s['agent_collided']:>5}   {_num(clr['min']):>13} {_num(clr['p01']):>7} "
+            f"{mode:<12} {s['fields']:>6} {s['collided']:>8} {_int(s['obstacle_collided']):>8} "
+            f"{_int(s['agent_collided']):>5}   {_num(clr['min']):>13} {_num(clr['p01']):>7} "
             f"{_num(clr['p05']):>7} {_num(clr['p50']):>7}   "
             f"{_num(s['min_interagent_distance']['min']):>14}   "
             f"{_num(s['guard_margin'], 4):>12} {_num(s['separation_margin'], 4):>11}"
@@ -213,7 +288,7 @@ def render(rep: dict[str, Any]) -> str:
             f"{s['longest_livelock']:>7.2f}s   {s['leader_reached']:>14}   "
             f"{_rate(s['arrived'], s['fields']):>18}"
         )
-    lines = [*safety, "", *runs, "", *liveness, ""]
+    lines = [*safety, "", *runs, "", *liveness, "", *_engine_table(rep)]
     for mode, s in rep["sets"].items():
         if mode in BREACHES and s["safety"] == "filter":
             lines.append(f"{mode:<12} breaks {s['breaks']}: {BREACHES[mode].what}")
@@ -236,6 +311,15 @@ def render(rep: dict[str, Any]) -> str:
             "sat(e/φ) in place of the paper's sign(e)"
         )
     lines.extend(["columns:", legend()])
+    if rep.get("plant", KINEMATICS) != KINEMATICS:
+        lines.append(legend(ENGINE_COLUMNS))
+        latency = rep.get("latency")
+        notes += (
+            f"; robots with mass: {rep['plant']} ({rep['dynamics']}"
+            + ("" if latency is None else f", latency {1000 * latency:g} ms")
+            + "): collisions, clearances and margins are the engine's, at every physics step, "
+            "not split by kind; the filter's theorem is for robots that move as commanded"
+        )
     lines.append(notes)
     lines.append(
         f"{rep['fields']} fields on {rep['jobs']} processes in {rep['wall_s']:.1f} s "

@@ -1,10 +1,12 @@
 """The safety campaign: many random fields through the reference simulator, in parallel.
 
 Each field (tools/campaign/fields.py) runs in a worker process with
-:func:`shoal.tools.simulator.simulate` and is judged by :mod:`shoal.world.metrics`, the same figures
-``shoal simulate`` prints; the campaign only splits collisions by kind and aggregates per set
-(inside, and outside by the assumption broken). An inside field that collides falsifies the
-guarantee; an outside one is data. The report of a campaign is tools/campaign/report.py's.
+:func:`shoal.tools.simulator.reference` and is judged by :mod:`shoal.world.metrics`, the same
+figures ``shoal simulate`` prints; the campaign only splits collisions by kind and aggregates
+per set (inside, and outside by the assumption broken). An inside field that collides falsifies the
+guarantee; an outside one is data. On robots with mass (``--plant mujoco``) the engine judges
+collisions, clearances and margins along its own motion, as in ``shoal simulate --plant
+mujoco``, and the ticks judge the rest. The report of a campaign is tools/campaign/report.py's.
 """
 
 from __future__ import annotations
@@ -18,16 +20,17 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
-from shoal.tools.campaign.fields import BREACHES, FieldOptions, make_field
+from shoal.tools.campaign.fields import BREACHES, FieldOptions, make_field, robots_section
 from shoal.tools.campaign.hard import HARD_MODES, hard_field
-from shoal.tools.simulator import simulate
+from shoal.tools.simulator import reference
 from shoal.world.errors import WorldError
 from shoal.world.loader import parse_scenario
 from shoal.world.metrics import Summary, Sweep, summarize
+from shoal.world.plant import KINEMATICS
 from shoal.world.scenario import Scenario
 from shoal.world.trajectory import Trajectory
 
@@ -94,10 +97,27 @@ class Outcome:
     slot_distance: float = 0.0
     livelocks: int = 0
     longest_livelock: float = 0.0
+    # Robots with mass (world/physics/): the plant, its robots' preset(s), and what the engine
+    # judged. Its collisions are not split by kind (``engine_collisions``; then the two counts
+    # above are 0); contacts are every onset the engine reported (a person walking into a
+    # robot among them); the deepest ≤ 0, m; tracking error: |achieved − commanded| point
+    # velocity per agent-tick, m/s, the run's median, 99th percentile and largest (nan: none).
+    plant: str = KINEMATICS
+    dynamics: str = ""
+    engine_collisions: int = 0
+    engine_contacts: int = 0
+    engine_deepest_contact: float = 0.0
+    tracking_error_p50: float = math.nan
+    tracking_error_p99: float = math.nan
+    tracking_error_max: float = math.nan
+
+    @property
+    def collisions(self) -> int:
+        return self.obstacle_collisions + self.agent_collisions + self.engine_collisions
 
     @property
     def collided(self) -> bool:
-        return self.obstacle_collisions + self.agent_collisions > 0
+        return self.collisions > 0
 
     @property
     def lagged(self) -> bool:
@@ -123,14 +143,54 @@ def _base(text: str, name: str) -> Scenario:
     return parse_scenario(text, default_name=name)
 
 
-def judge(field: Scenario, mode: str = "", seconds: float = 0.0) -> Outcome:
-    """Run ``field`` (of set ``mode``) through the reference simulator and measure it;
-    ``seconds`` of CPU already spent on it (drawing it) count towards its time."""
+def judge(
+    field: Scenario, mode: str = "", seconds: float = 0.0, plant: str = KINEMATICS
+) -> Outcome:
+    """Run ``field`` (of set ``mode``) through the reference simulator on ``plant`` (the
+    robots its ``dynamics:`` section names) and measure it; ``seconds`` of CPU already spent on
+    it (drawing it) count towards its time."""
     start = time.process_time()
-    traj = simulate(field)
+    traj, judged = reference(field, plant=plant)
     swept = Sweep.of(field, traj)
     summary = summarize(field, traj, swept=swept)
-    return measure(field, traj, summary, mode, seconds + time.process_time() - start, swept)
+    outcome = measure(field, traj, summary, mode, 0.0, swept)
+    if judged:
+        outcome = engine_judged(outcome, judged)
+        outcome = dataclasses.replace(
+            outcome, source=field.source if outcome.collided or outcome.lagged else ""
+        )
+    return dataclasses.replace(outcome, seconds=seconds + time.process_time() - start)
+
+
+def engine_judged(outcome: Outcome, judged: dict[str, Any]) -> Outcome:
+    """``outcome`` with a physics plant's judgement (world/physics/judge.py) in place of the
+    ticks' collisions, clearances and margins, as ``shoal simulate --plant mujoco`` reports."""
+    least = judged.get("min_clearance")
+    guard = judged.get("guard_margin")
+    return dataclasses.replace(
+        outcome,
+        plant=str(judged["plant"]),
+        dynamics=str(judged["dynamics"]),
+        obstacle_collisions=0,
+        agent_collisions=0,
+        engine_collisions=int(judged["collisions"]),
+        engine_contacts=int(judged["engine_contacts"]),
+        engine_deepest_contact=float(judged["engine_deepest_contact"]),
+        min_clearance=math.inf if least is None else float(least),
+        guard_margin=math.inf if guard is None else float(guard),
+        min_interagent_distance=float(
+            judged.get("min_interagent_distance", outcome.min_interagent_distance)
+        ),
+        separation_margin=float(judged.get("separation_margin", outcome.separation_margin)),
+        tracking_error_p50=_figure(judged.get("tracking_error_p50")),
+        tracking_error_p99=_figure(judged.get("tracking_error_p99")),
+        tracking_error_max=_figure(judged.get("tracking_error_max")),
+    )
+
+
+def _figure(value: Any) -> float:
+    """A judged figure as a float; nan where the engine had none to give."""
+    return math.nan if value is None else float(value)
 
 
 def measure(
@@ -179,14 +239,16 @@ def run_task(task: Task) -> Outcome:
         if task.mode in HARD_MODES:
             k = task.options.boundary_layer
             unicycles = task.options.kinematics == "unicycle"
+            robots = robots_section(task.options, unicycles)
             field = hard_field(
-                task.seed, HARD_MODES[task.mode], boundary_layer=k, unicycles=unicycles
-            )
+                task.seed, HARD_MODES[task.mode], boundary_layer=k, unicycles=unicycles,
+                robots=robots,
+            )  # fmt: skip
         else:
             field = make_field(_base(task.base, task.base_name), task.seed, task.mode, task.options)
     except WorldError as exc:
         return _failed(task, str(exc))
-    return judge(field, task.mode, time.process_time() - start)
+    return judge(field, task.mode, time.process_time() - start, task.options.plant)
 
 
 def _failed(task: Task, error: str) -> Outcome:

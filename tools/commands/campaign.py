@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import sys
@@ -16,8 +17,15 @@ import click
 from shoal.bus.runtime import exit_on_signals
 from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.campaign.cluster import ClusterError, run_on_dask
-from shoal.tools.campaign.fields import BREACHES, FieldOptions, breaches, load_field
-from shoal.tools.campaign.hard import HARD_MODES
+from shoal.tools.campaign.fields import (
+    BREACHES,
+    FieldError,
+    FieldOptions,
+    breaches,
+    load_field,
+    make_field,
+)
+from shoal.tools.campaign.hard import HARD_MODES, hard_field
 from shoal.tools.campaign.people import (
     MODELS,
     PeopleOptions,
@@ -44,14 +52,17 @@ from shoal.tools.campaign.swarms import (
     run_swarms,
     swarm_report,
 )
-from shoal.tools.commands.options import load_for_cli
+from shoal.tools.commands.options import check_plant, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.extras import require
+from shoal.tools.procs.children import PLANT_OPTIONS, WorldSpec, click_options
 from shoal.tools.procs.swarm import SUPERVISOR_GRACE_S, ChildFailed
 from shoal.tools.progress import progress_bar
-from shoal.tools.simulator import simulate
+from shoal.tools.simulator import reference
+from shoal.world.dynamics import PRESETS, Drive
 from shoal.world.errors import ScenarioError
 from shoal.world.metrics import summarize
+from shoal.world.plant import KINEMATICS
 from shoal.world.scenario import Scenario
 
 T = TypeVar("T")
@@ -228,6 +239,12 @@ def _count(text: str) -> tuple[int, int]:
     "them); hard: the adversarial generator's admissible fields, half of --fields in 2-D and "
     "half in 3-D (docs/campaign.md, Hard fields).",
 )
+@click_options(WorldSpec, only=PLANT_OPTIONS)
+@click.option(
+    "--latency-ms", type=click.FloatRange(min=0.0, max=10_000.0), metavar="MS",
+    help="--plant mujoco: every robot's actuation latency, ms, from a command to its motors "
+    "acting on it [default: the preset's]. Written into each field's dynamics: section.",
+)  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def campaign(**params: Any) -> None:
     """Run many random obstacle fields through the reference simulator, in parallel.
@@ -238,11 +255,15 @@ def campaign(**params: Any) -> None:
     and convergence per set, and the filter's activity and stalls. Exit status 1 if any inside
     field collides: that falsifies the guarantee (with --safety paper, the paper's
     Corollary 1). Outside collisions are data. 2 if a field could not be drawn.
+
+    --plant mujoco runs every field on robots with mass (docs/campaign.md, Robots with mass):
+    the engine judges collisions and margins, and each saved field carries its robots.
     """
     if params["rerun"] is not None:
-        _rerun(params["rerun"], params["as_json"])
+        _rerun(params["rerun"], params["as_json"], params["plant"], params["dynamics"])
         return
     config = _config(params)
+    _check_robots(config, params)
     if params["swarm"] is not None:
         if params["dask"] is not None:
             raise click.UsageError("--swarm runs real processes on this machine: not with --dask")
@@ -277,11 +298,13 @@ class Campaign:
 
 def _config(params: Mapping[str, Any]) -> Campaign:
     """The campaign the options ask for, checked."""
+    latency = params["latency_ms"]
     fields = FieldOptions(
         length=params["length"], count=_count(params["obstacles"]), spacing=params["spacing"],
         sigma_max=params["sigma_max"], boundary_layer=params["boundary_layer"],
         kinematics=params["kinematics"], speed_limit=params["speed_limit"],
-        position_error=params["position_error"],
+        position_error=params["position_error"], plant=params["plant"],
+        dynamics=params["dynamics"], latency=None if latency is None else latency / 1000,
     )  # fmt: skip
     people, safety = params["people"], params["safety"]
     scn = load_for_cli(params["base"] or ("crossing" if people is not None else "obstacles"))
@@ -308,6 +331,51 @@ def _config(params: Mapping[str, Any]) -> Campaign:
     )  # fmt: skip
 
 
+def _check_robots(c: Campaign, params: Mapping[str, Any]) -> None:
+    """Refuse a --plant, --dynamics or --latency-ms that cannot run the campaign's fields,
+    before any runs: physics options without robots with mass, a physics plant for swarms or
+    people, MuJoCo not installed, a preset that fits none of the fields' agents (checked on the
+    first field, drawn without its robots: every field's agents are of one kind)."""
+    plant, robots = c.fields.plant, c.fields
+    if plant == KINEMATICS and params["latency_ms"] is not None:
+        raise click.BadParameter(
+            "is for robots with mass: add --plant mujoco", param_hint="--latency-ms"
+        )
+    if plant != KINEMATICS and (params["swarm"] is not None or c.crowd is not None):
+        raise click.UsageError(
+            f"--plant {plant} runs the fields through the reference simulator: not with "
+            "--swarm or --people"
+        )
+    if plant == KINEMATICS and robots.dynamics is None:
+        return
+    bare = dataclasses.replace(robots, plant=KINEMATICS, dynamics=None, latency=None)
+    try:
+        if c.hard:
+            sample = hard_field(c.seed, 2, unicycles=bare.kinematics == "unicycle")
+        else:
+            sample = make_field(c.base, c.seed, "inside", bare)
+    except FieldError:
+        sample = c.base  # the campaign reports the field it cannot draw; check the base's agents
+    if plant != KINEMATICS and robots.dynamics is not None:
+        _fits(sample, robots.dynamics)
+    check_plant(sample, plant, robots.dynamics)
+
+
+def _fits(sample: Scenario, name: str) -> None:
+    """``--dynamics name`` drives some agent of ``sample`` (a field of the campaign)."""
+    drive = PRESETS[name].drive
+    wheeled = drive == Drive.DIFFERENTIAL
+    if any(a.single != wheeled for a in sample.agents):
+        return
+    kind = "single integrators" if wheeled else "unicycles"
+    fits = ", ".join(p for p, d in PRESETS.items() if d.drive != drive)
+    hint = " (--kinematics unicycle makes them unicycles)" if wheeled else ""
+    raise click.BadParameter(
+        f"{name} is a {drive} drive, but the fields' agents are {kind}{hint}: choose one of {fits}",
+        param_hint="--dynamics",
+    )
+
+
 def _reference(c: Campaign, where: Workers) -> None:
     """The fields through the reference simulator; exit status 1 if an inside field collided
     (2 if one could not be drawn)."""
@@ -325,6 +393,10 @@ def _reference(c: Campaign, where: Workers) -> None:
         rep["boundary_layer"] = c.fields.boundary_layer
     if c.fields.kinematics is not None:
         rep["kinematics"] = c.fields.kinematics
+    if c.fields.plant != KINEMATICS:  # said with every figure: robots with mass, which ones
+        ran = {s["dynamics"] for s in rep["sets"].values() if "dynamics" in s}
+        rep.update(plant=c.fields.plant, dynamics=", ".join(sorted(ran)),
+                   latency=c.fields.latency)  # fmt: skip
     if c.save_failures is not None:
         _saved(rep["failures"], write_failures(outcomes, c.save_failures))
     if c.save_lagging is not None:
@@ -335,7 +407,7 @@ def _reference(c: Campaign, where: Workers) -> None:
     click.echo(json.dumps(_json_safe(rep)) if c.as_json else render(rep))
     inside = "inside/paper" if c.modes == ("paper",) else "inside"
     judged = ("hard/2d", "hard/3d") if c.hard else (inside,)
-    _exit_status(rep, c.save_failures, judged)
+    _exit_status(rep, c.save_failures, judged, c.fields.plant)
 
 
 def _up_front(c: Campaign, runs: int, in_2d: int) -> str:
@@ -429,16 +501,20 @@ def _swarms(c: Campaign, count: int, how: Swarming) -> None:
         sys.exit(1)  # (an agent-at-fault contact counts among the collisions)
 
 
-def _exit_status(rep: dict[str, Any], saved: Path | None, judged: Sequence[str]) -> None:
+def _exit_status(
+    rep: dict[str, Any], saved: Path | None, judged: Sequence[str], plant: str = KINEMATICS
+) -> None:
     inside = [f for f in rep["failures"] if f["set"] in judged]
     if inside:
         names = ", ".join(f["name"] for f in inside[:10]) + (" …" if len(inside) > 10 else "")
         where = f"saved in {saved}" if saved else "rerun with --save-failures DIR to keep them"
-        click.echo(
-            f"{len(inside)} inside field(s) collided, which the guarantee rules out: "
-            f"{names} ({where})",
-            err=True,
+        why = (
+            "which the guarantee rules out"
+            if plant == KINEMATICS
+            else f"on robots with mass ({plant}; the filter's theorem is for robots that move "
+            "as commanded)"
         )
+        click.echo(f"{len(inside)} inside field(s) collided, {why}: {names} ({where})", err=True)
         sys.exit(1)
     if rep["errors"]:
         click.echo(f"{len(rep['errors'])} field(s) could not be drawn", err=True)
@@ -455,27 +531,31 @@ def _json_safe(value: Any) -> Any:
     return value
 
 
-def _rerun(path: Path, as_json: bool) -> None:
-    """Run one saved field; also those the loader refuses because they break an assumption."""
+def _rerun(path: Path, as_json: bool, plant: str, dynamics: str | None) -> None:
+    """Run one saved field; also those the loader refuses because they break an assumption.
+    On ``plant`` mujoco the engine's judgement replaces the ticks', as in ``shoal simulate``."""
     try:
         field = load_field(path.read_text(encoding="utf-8"))
     except ScenarioError as exc:
         raise click.ClickException(f"{path}: {exc}") from None
-    traj = simulate(field)
+    check_plant(field, plant, dynamics)
+    traj, judged = reference(field, plant=plant, dynamics=dynamics)
     result = summarize(field, traj)
     outcome = measure(field, traj, result)
-    summary = json_safe(result.as_dict())
-    summary.update(
-        breaks=sorted(breaches(field)),
-        obstacle_collisions=outcome.obstacle_collisions,
-        agent_collisions=outcome.agent_collisions,
-    )
+    summary = json_safe({**result.as_dict(), **judged})
+    summary.update(breaks=sorted(breaches(field)))
+    if not judged:  # the engine does not split its collisions by kind
+        summary.update(
+            obstacle_collisions=outcome.obstacle_collisions,
+            agent_collisions=outcome.agent_collisions,
+        )
     if as_json:
         click.echo(json.dumps(summary))
         return
     click.echo(render_summary(summary))
-    click.echo(
-        f"{'collisions by kind':<24}  {outcome.obstacle_collisions} agent–obstacle, "
-        f"{outcome.agent_collisions} agent–agent"
-    )
+    if not judged:
+        click.echo(
+            f"{'collisions by kind':<24}  {outcome.obstacle_collisions} agent–obstacle, "
+            f"{outcome.agent_collisions} agent–agent"
+        )
     click.echo(f"{'breaks':<24}  {', '.join(summary['breaks']) or 'nothing checked at load'}")
