@@ -50,8 +50,9 @@ class Permissions:
 def roles(run: str, agents: int) -> list[Permissions]:
     """Every identity of run ``run`` with agents 1..``agents`` and what it needs, no more.
 
-    The world alone publishes sensing, ticks, events, the scenario, the summary and (driving
-    robots) what the robots reported and were sent; it serves the
+    The world alone publishes sensing, ticks, events, the scenario, the summary, (driving
+    robots) what the robots reported and were sent and (a physics plant) the engine's bodies,
+    motors and contacts; it serves the
     configurations and asks for the agents' reports; agent i publishes only its own state and
     command, fetches only its own configuration and answers only for its own report; the logger
     and the monitor only listen.
@@ -60,7 +61,7 @@ def roles(run: str, agents: int) -> list[Permissions]:
     world = Permissions(
         WORLD,
         token=k.alive_world,
-        publishes=(k.sensings, k.tick, k.event, k.summary, k.scenario, k.robots),
+        publishes=(k.sensings, k.tick, k.event, k.summary, k.scenario, k.robots, k.plant),
         discovers=(k.everything,),
         subscribes=(k.commands,),
         watches=(k.alive_everyone,),  # also its check for a second world on the run

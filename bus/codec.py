@@ -18,7 +18,16 @@ import msgpack
 
 from shoal.bus.errors import ConfigError, DecodeError
 from shoal.bus.fields import table
-from shoal.bus.messages import AgentState, Command, Event, Mover, RobotsRecord, Sensing, TickRecord
+from shoal.bus.messages import (
+    AgentState,
+    Command,
+    Event,
+    Mover,
+    PlantRecord,
+    RobotsRecord,
+    Sensing,
+    TickRecord,
+)
 from shoal.bus.types import (
     REACHED,
     AgentConfig,
@@ -506,6 +515,18 @@ def _robots_shape(r: RobotsRecord) -> None:
         raise DecodeError("robots.twist: each is [linear x, linear y, angular z]")
 
 
+def _plant_shape(r: PlantRecord) -> None:
+    n = len(r.bodies)
+    if len(r.velocities) != n or any(len(x) not in (0, n) for x in (r.yaws, r.turn_rates)):
+        raise DecodeError("plant: per-robot fields differ in length")
+    if len(r.motor_speeds) != len(r.motor_efforts):
+        raise DecodeError("plant: motor speeds and efforts differ in length")
+    if n:
+        _same_dim(len(r.bodies[0]), (*r.bodies, *r.velocities), "plant.body")
+    if any(len(c) != 3 for c in r.contacts):
+        raise DecodeError("plant.contact: each is [agent, what it touched, depth]")
+
+
 def _whole(message: Any) -> None:
     """No check across fields: each field's own is all."""
 
@@ -551,8 +572,9 @@ KINDS = {
     TickRecord: Kind.of("tick", TickRecord, _tick_shape),  # world → all
     Event: Kind.of("event", Event),
     RobotsRecord: Kind.of("robots", RobotsRecord, _robots_shape),
+    PlantRecord: Kind.of("plant", PlantRecord, _plant_shape),
 }
-Message = Sensing | AgentState | TickRecord | Event | RobotsRecord
+Message = Sensing | AgentState | TickRecord | Event | RobotsRecord | PlantRecord
 
 
 def encode(message: Message) -> bytes:
@@ -568,7 +590,7 @@ def decode(cls: type[M], data: bytes) -> M:
 
 
 SENSING, STATE, TICK = KINDS[Sensing].table, KINDS[AgentState].table, KINDS[TickRecord].table
-EVENT, ROBOTS = KINDS[Event].table, KINDS[RobotsRecord].table
+EVENT, ROBOTS, PLANT = KINDS[Event].table, KINDS[RobotsRecord].table, KINDS[PlantRecord].table
 # A command travels with the state it was computed from: its id and tick are the state's.
 COMMAND = tuple(f for f in KINDS[Command].table if f.key not in {g.key for g in STATE})
 _encode_report = encoder(STATE, COMMAND)
@@ -588,12 +610,13 @@ def decode_report(data: bytes) -> tuple[AgentState, Command]:
 
 
 # The names the processes call: each message's encoder is encode; its decoder, decode of it.
-encode_sensing = encode_state = encode_tick = encode_event = encode_robots = encode
+encode_sensing = encode_state = encode_tick = encode_event = encode_robots = encode_plant = encode
 decode_sensing: Callable[[bytes], Sensing] = KINDS[Sensing].decode
 decode_state: Callable[[bytes], AgentState] = KINDS[AgentState].decode
 decode_tick: Callable[[bytes], TickRecord] = KINDS[TickRecord].decode
 decode_event: Callable[[bytes], Event] = KINDS[Event].decode
 decode_robots: Callable[[bytes], RobotsRecord] = KINDS[RobotsRecord].decode
+decode_plant: Callable[[bytes], PlantRecord] = KINDS[PlantRecord].decode
 
 
 def encode_document(kind: str, body: Mapping[str, Any]) -> bytes:

@@ -93,6 +93,12 @@ class Keys:
         return f"{self.root}/world/robots"
 
     @property
+    def plant(self) -> str:
+        """World → all, every tick of a run on a physics plant: the robots' bodies, motors
+        and contacts as the engine moved them."""
+        return f"{self.root}/world/plant"
+
+    @property
     def event(self) -> str:
         """World → all: something worth a line in the log (an agent gone, the run done)."""
         return f"{self.root}/world/event"

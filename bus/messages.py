@@ -1,8 +1,8 @@
 """The messages of a tick: what the world tells an agent (:class:`Sensing`, with the
 :class:`Mover` s it senses), what agents tell each other (:class:`AgentState`), what an agent tells
 the world (:class:`Command`), and what the world tells everyone (:class:`TickRecord`,
-:class:`Event`, :class:`RobotsRecord`). Vectors and units as in bus/types.py; docs/wire.md
-has their encoding.
+:class:`Event`, :class:`RobotsRecord`, :class:`PlantRecord`). Vectors and units as in
+bus/types.py; docs/wire.md has their encoding.
 
 Each field is one line: its attribute, its type and its wire form (``Wire``: its key in the
 msgpack map, its default, whether it is left out when empty). Each class's ``__init__`` and the
@@ -213,6 +213,39 @@ class RobotsRecord:
     # End of what is written.
 
 
+@dataclass(init=False, slots=True, unsafe_hash=True)
+class PlantRecord:
+    """World → all, each tick of a run on a physics plant (``--plant mujoco``, docs/physics.md):
+    the robots as the engine moved them, at the tick's end. bodies: each robot's body (m; a
+    wheeled robot's axle midpoint, a base's centre) and yaws (rad; empty in 3-D); velocities:
+    each body's (m/s) and turn_rates its yaw rate (rad/s; empty in 3-D); motor_speeds: each
+    motor's joint speed (a wheel's rad/s, a base's slide m/s) and motor_efforts what it applied
+    at the tick's last physics step (N·m, N), in the model's motor order (each robot's in agent
+    order: a wheeled robot's left then right, a base's x, y[, z]); contacts: every contact the
+    engine reported during the tick as (agent id, what it touched, depth m < 0), what it touched
+    an agent id 1..n or n + 1 + k for obstacle k (scenario order). Agent-id order."""
+
+    tick: Final[Annotated[int, Wire("tick")]]
+    bodies: Final[Annotated[tuple[Vector, ...], Wire("body")]]
+    velocities: Final[Annotated[tuple[Vector, ...], Wire("vel")]]
+    motor_speeds: Final[Annotated[tuple[float, ...], Wire("speed")]]
+    motor_efforts: Final[Annotated[tuple[float, ...], Wire("effort")]]
+    yaws: Final[Annotated[tuple[float, ...], Wire("yaw", default=(), sparse=True)]]
+    turn_rates: Final[Annotated[tuple[float, ...], Wire("turn", default=(), sparse=True)]]
+    contacts: Final[Annotated[tuple[Vector, ...], Wire("contact", default=(), sparse=True)]]
+
+    # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
+    def __init__(self, tick: int, bodies: tuple[Vector, ...], velocities: tuple[Vector, ...],
+                       motor_speeds: tuple[float, ...], motor_efforts: tuple[float, ...],
+                       yaws: tuple[float, ...] = (), turn_rates: tuple[float, ...] = (),
+                       contacts: tuple[Vector, ...] = ()) -> None:  # fmt: skip
+        self.tick, self.bodies, self.velocities = tick, bodies, velocities
+        self.motor_speeds, self.motor_efforts, self.yaws = motor_speeds, motor_efforts, yaws
+        self.turn_rates, self.contacts = turn_rates, contacts
+
+    # End of what is written.
+
+
 def _rebuilt(record: Any) -> tuple[type[Any], tuple[Any, ...]]:
     return type(record), tuple([getattr(record, f.name) for f in fields(record)])
 
@@ -225,7 +258,7 @@ def picklable(*classes: type[Any]) -> None:
         copyreg.pickle(cls, _rebuilt)
 
 
-picklable(Mover, Sensing, AgentState, Command, TickRecord, Event, RobotsRecord)
+picklable(Mover, Sensing, AgentState, Command, TickRecord, Event, RobotsRecord, PlantRecord)
 
 # Written by `python -m shoal.bus.fields` from the fields above; not by hand.
 WIRE: dict[type[Any], tuple[str, ...]] = {
@@ -239,5 +272,7 @@ WIRE: dict[type[Any], tuple[str, ...]] = {
                  "mw:vectors?", "hd:floats?"),
     Event: ("tick:int", "level:int", "agent:int", "text:str"),
     RobotsRecord: ("tick:int", "twist:vectors", "age:floats?"),
+    PlantRecord: ("tick:int", "body:vectors", "vel:vectors", "speed:floats", "effort:floats",
+                  "yaw:floats?", "turn:floats?", "contact:vectors?"),
 }  # fmt: skip
 # End of what is written.

@@ -15,6 +15,7 @@ import importlib.util
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from shoal.bus.messages import PlantRecord
 from shoal.bus.types import Vector
 from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import move
@@ -71,6 +72,10 @@ class Plant(Protocol):
     def report(self) -> dict[str, Any]:
         """Summary entries: what was heard, dropped and sent."""
 
+    def record(self, tick: int) -> PlantRecord | None:
+        """What the plant's bodies did over tick ``tick`` (just sent), for the log: a physics
+        plant's bodies, motors and contacts; None for the others."""
+
 
 class Kinematics:
     """The world's own kinematics as a plant: single integrators, unicycles along their exact
@@ -111,6 +116,9 @@ class Kinematics:
 
     def report(self) -> dict[str, Any]:
         return {}
+
+    def record(self, tick: int) -> None:
+        return None
 
 
 def simulated(scenario: Scenario, plant: str = KINEMATICS, dynamics: str | None = None) -> Plant:

@@ -116,8 +116,9 @@ class World(Declarations):
         self._held += [*self.sensing_out.values(), self.tick_out, self.event_out]
         self._held += [self.summary_out, self.scenario_out]
         self.robots_out = bus.publisher(k.robots) if self.robots else None
-        if self.robots_out is not None:
-            self._held.append(self.robots_out)
+        physics = options.plant is not None and options.plant.simulated
+        self.plant_out = bus.publisher(k.plant) if physics else None
+        self._held += [out for out in (self.robots_out, self.plant_out) if out is not None]
         self._held.append(bus.token(k.alive_world))
 
     @property
@@ -226,12 +227,18 @@ class World(Declarations):
             self._collect(k, clock)
             record = step.act_recorded(k, self._reports(k, clock), self.alive)
             self.tick_out.put(codec.encode_tick(record))
-            if self.robots_out is not None and step.sent is not None:
-                robots = _robots_record(k, step.seen, step.sent)
-                self.robots_out.put(codec.encode_robots(robots))
+            self._publish_plant(k, step)
             if self.aborted is not None:
                 break
         return self._summarize(step, step.finish(), clock)
+
+    def _publish_plant(self, k: int, step: Step) -> None:
+        """Tick k's record of what moved the agents: what the robots reported and were sent,
+        or the bodies, motors and contacts of a physics plant."""
+        if self.robots_out is not None and step.sent is not None:
+            self.robots_out.put(codec.encode_robots(_robots_record(k, step.seen, step.sent)))
+        if self.plant_out is not None and (moved := step.plant.record(k)) is not None:
+            self.plant_out.put(codec.encode_plant(moved))
 
     def _reports(self, k: int, clock: _Clock) -> dict[int, Report]:
         """The commands that move the agents over tick k: each live agent's latest, unless it

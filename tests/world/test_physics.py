@@ -148,3 +148,29 @@ def test_a_plant_that_cannot_run_is_refused_before_anything_starts(
 ) -> None:
     got = CliRunner().invoke(main, ["simulate", "default", *args])
     assert got.exit_code != 0 and words in got.output
+
+
+def test_the_world_publishes_the_engines_bodies_every_tick() -> None:
+    """A lockstep run on an in-memory bus with the engine as the world's plant: one plant
+    record per tick, each robot's body l behind its point, its motors' figures, and the
+    contact of the crash in the tick it happened."""
+    from memoryrun import RUN, run_in_memory
+
+    from shoal.bus import codec
+    from shoal.bus.keys import Keys
+    from shoal.bus.memory import MemoryBus
+
+    scn = parse_scenario(CRASH)
+    bus = MemoryBus()
+    summary, errors = run_in_memory(scn, bus, plant=simulated(scn, MUJOCO), plant_name=MUJOCO)
+    assert not errors
+    key = Keys(RUN)
+    records = [codec.decode_plant(p) for k, p in bus.published if k == key.plant]
+    ticks = [codec.decode_tick(p) for k, p in bus.published if k == key.tick]
+    assert [r.tick for r in records] == [t.tick for t in ticks] == list(range(scn.steps))
+    for r, nxt in zip(records, ticks[1:], strict=False):  # a base's body is its point
+        assert r.bodies == nxt.positions and len(r.motor_speeds) == 2 * scn.n
+    touched = [r for r in records if r.contacts]
+    assert touched and all(c[0] == 2 and c[1] == scn.n + 1 and c[2] < 0 for r in touched
+                           for c in r.contacts)  # fmt: skip
+    assert summary["engine_contacts"] >= 1 and summary["plant"] == "mujoco"

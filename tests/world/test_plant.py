@@ -67,6 +67,9 @@ class Robots:
     def report(self) -> dict[str, Any]:
         return {"robot_commands": len(self.sent)}
 
+    def record(self, tick: int) -> None:
+        return None
+
 
 def test_the_world_records_where_the_robots_are_and_sends_them_each_tick() -> None:
     scn = short("obstacles", 0.5)

@@ -141,6 +141,9 @@ class Ros2Robots:
                 out[wheeled] = np.stack([v, np.zeros_like(v), omega], axis=1)
         return out
 
+    def record(self, tick: int) -> None:
+        return None  # what the robots did is their RobotsRecord, which the world makes
+
     def stop(self) -> None:
         stop = zero()
         for cmd in self._cmd:

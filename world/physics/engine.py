@@ -26,6 +26,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from shoal.bus.messages import PlantRecord
 from shoal.geometry.vectors import FloatArray
 from shoal.world.dynamics import Drive, Dynamics
 from shoal.world.physics.judge import Judge
@@ -193,6 +194,32 @@ class Engine:
         """Let ``ticks`` ticks pass with no command (the robots' own timeouts stop them)."""
         for _ in range(ticks * self.substeps):
             self._physics_step()
+
+    def record(self, tick: int) -> PlantRecord:
+        """The bodies, motors and contacts of the tick just stepped (bus/messages.py)."""
+        d, two = self.data, self.dim == 2
+        bodies = np.empty((self.scenario.n, self.dim))
+        velocities = np.empty((self.scenario.n, self.dim))
+        bodies[self.bases] = d.qpos[self.base_qpos]
+        velocities[self.bases] = d.qvel[self.base_dof]
+        poses = self.body_poses() if two else None
+        if len(self.wheeled):
+            bodies[self.wheeled] = d.qpos[self.free_qpos[:, :2]]
+            velocities[self.wheeled] = d.qvel[self.free_dof[:, :2]]
+        turns = np.empty(self.scenario.n)
+        if two:
+            turns[self.bases] = d.qvel[self.yaw_dof]
+            turns[self.wheeled] = d.qvel[self.free_dof[:, 5]]
+        return PlantRecord(
+            tick,
+            bodies=tuple(map(tuple, bodies.tolist())),
+            velocities=tuple(map(tuple, velocities.tolist())),
+            motor_speeds=tuple(d.qvel[self.ctrl_dof].tolist()),
+            motor_efforts=tuple(d.ctrl.tolist()),
+            yaws=() if poses is None else tuple(poses[:, 2].tolist()),
+            turn_rates=tuple(turns.tolist()) if two else (),
+            contacts=self.judge.stretch_contacts(),
+        )
 
     # -- robots driven by twists (a ROS 2 fleet on the wall clock: tools/ros2/physics.py) -----
 

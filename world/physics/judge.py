@@ -44,6 +44,7 @@ class Judge:
         self.points = np.empty((substeps + 1, s.n, s.dim))
         self.commanded = np.zeros((s.n, s.dim))
         self.tracked = False
+        self.stretch: dict[tuple[int, int], float] = {}  # pair → the deepest this stretch
         self.touching: set[tuple[int, int]] = set()
         self.contacts: list[tuple[int, int, float]] = []  # onsets: (agent, other, physics step)
         self.at_fault = 0  # onsets with a person the robot was driving towards, or any other
@@ -59,6 +60,7 @@ class Judge:
         if self.points.shape[0] != steps + 1:
             self.points = np.empty((steps + 1, self.n, self.dim))
         self.points[0] = points
+        self.stretch = {}
         self.commanded = np.zeros((self.n, self.dim)) if commanded is None else commanded
         self.tracked = commanded is not None
 
@@ -77,6 +79,7 @@ class Judge:
                 pair = (min(a, b), max(a, b))
                 now.add(pair)
                 self.deepest = min(self.deepest, depth)
+                self.stretch[pair] = min(self.stretch.get(pair, 0.0), depth)
         for pair in sorted(now - self.touching):
             self._onset(*pair, points, data)
         self.touching = now
@@ -104,6 +107,11 @@ class Judge:
         if self.tracked:
             achieved = (points - path[0]) / elapsed
             self.tracking.append(np.linalg.norm(achieved - self.commanded, axis=-1))
+
+    def stretch_contacts(self) -> tuple[tuple[float, float, float], ...]:
+        """Every pair in contact during the last stretch: (agent id, what it touched — an agent
+        id, or n + 1 + k for obstacle k —, the deepest depth, m)."""
+        return tuple((a + 1.0, b + 1.0, d) for (a, b), d in sorted(self.stretch.items()))
 
     def report(self) -> dict[str, Any]:
         errors = np.concatenate(self.tracking) if self.tracking else None
