@@ -62,7 +62,7 @@ class Engine:
         self.queue: deque[tuple[int, FloatArray]] = deque()  # (physics step sent, set-points)
         self.step_count = 0
         self.heard = np.zeros(nu, dtype=np.int64)  # the physics step of each motor's last command
-        self.judge = Judge(s, self.model, self.substeps)
+        self.judge = Judge(s, self.model, lambda qpos: self.points_of(qpos)[0])
 
     # -- the model's addresses and the loops' gains --------------------------------------------
 
@@ -108,7 +108,6 @@ class Engine:
         self.unicycles = lookaheads is not None
         self.lookaheads = np.zeros(s.n) if lookaheads is None else lookaheads.copy()
         self.wheeled_ell = self.lookaheads[self.wheeled]
-        self.no_headings = np.zeros(0)
         self.start_headings = s.initial_headings.copy()
 
     def _gains(self) -> None:
@@ -151,17 +150,24 @@ class Engine:
 
     def _points(self) -> tuple[FloatArray, FloatArray]:
         """Every agent's point (n, dim) now, and the wheeled robots' headings (in
-        ``self.wheeled`` order): the yaw of each chassis' orientation, its point l ahead."""
-        qpos = self.data.qpos
-        points = np.empty((self.scenario.n, self.dim))
-        points[self.bases] = qpos[self.base_qpos]
+        ``self.wheeled`` order)."""
+        points, theta = self.points_of(self.data.qpos[None, :])
+        return points[0], theta[0]
+
+    def points_of(self, qpos: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The agents' points (k, n, dim) and the wheeled robots' headings (k, wheeled) at each
+        of ``qpos`` (k, nq), the engine's positions at k instants: a base's slides; a wheeled
+        robot's point l ahead of its axle at the yaw of its chassis. One array pass for any
+        number of instants: the judge reads a whole tick's physics steps at once."""
+        points = np.empty((qpos.shape[0], self.scenario.n, self.dim))
+        points[:, self.bases] = qpos[:, self.base_qpos]
         if not len(self.wheeled):
-            return points, self.no_headings
-        pose = qpos[self.free_qpos]
-        w, x, y, z = pose[:, 3], pose[:, 4], pose[:, 5], pose[:, 6]
+            return points, np.zeros((qpos.shape[0], 0))
+        pose = qpos[:, self.free_qpos]
+        w, x, y, z = pose[..., 3], pose[..., 4], pose[..., 5], pose[..., 6]
         theta = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        points[self.wheeled, 0] = pose[:, 0] + self.wheeled_ell * np.cos(theta)
-        points[self.wheeled, 1] = pose[:, 1] + self.wheeled_ell * np.sin(theta)
+        points[:, self.wheeled, 0] = pose[..., 0] + self.wheeled_ell * np.cos(theta)
+        points[:, self.wheeled, 1] = pose[..., 1] + self.wheeled_ell * np.sin(theta)
         return points, theta
 
     def send(
@@ -178,13 +184,13 @@ class Engine:
         """``steps`` physics steps on the set-points the motors have, each judged; the people
         walk ``movers`` meanwhile; ``commanded`` (n, dim), the points' velocities the steps
         were to achieve (for the tracking error; None: not tracked)."""
-        self.judge.begin(self._points()[0], commanded, steps)
+        self.judge.begin(self.data.qpos, commanded, steps)
         for sub in range(steps):
             if movers is not None:
                 self._walk(movers, (sub + 1) / steps)
             self._physics_step()
-            self.judge.physics_step(self.data, self._points()[0], sub)
-        self.judge.end(self._points()[0], steps * self.timestep)
+            self.judge.physics_step(self.data, sub)
+        self.judge.end(steps * self.timestep)
 
     def stop(self) -> None:
         """Zero set-points from now (the engine does not step until the next :meth:`send`)."""

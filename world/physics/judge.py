@@ -11,6 +11,7 @@ ticks, which the engine's motion passes between).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
@@ -24,7 +25,13 @@ from shoal.world.scenario import Scenario
 class Judge:
     """What the engine's motion amounted to, physics step by physics step."""
 
-    def __init__(self, scenario: Scenario, model: mujoco.MjModel, substeps: int) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        model: mujoco.MjModel,
+        points_of: Callable[[FloatArray], FloatArray],
+    ) -> None:
+        """``points_of``: the agents' points (k, n, dim) at k rows of the engine's qpos."""
         s = scenario
         self.n, self.dim, self.rho, self.separation = (
             s.n,
@@ -41,7 +48,8 @@ class Judge:
         for k in range(len(s.obstacles)):
             self.who[model.geom(f"obstacle{k}").id] = s.n + k
         self.upper = np.triu_indices(s.n, 1)
-        self.points = np.empty((substeps + 1, s.n, s.dim))
+        self.points_of = points_of
+        self.qpos = np.empty((0, model.nq))  # the stretch's positions, one row per physics step
         self.commanded = np.zeros((s.n, s.dim))
         self.tracked = False
         self.stretch: dict[tuple[int, int], float] = {}  # pair → the deepest this stretch
@@ -54,18 +62,18 @@ class Judge:
         self.distance = np.inf  # m: least distance between two agents' points
         self.tracking: list[FloatArray] = []  # per tick, per agent: |achieved − commanded|, m/s
 
-    def begin(self, points: FloatArray, commanded: FloatArray | None, steps: int) -> None:
-        """A stretch of ``steps`` physics steps from ``points``, meant to move the points at
-        ``commanded`` (None: no tracking error is taken)."""
-        if self.points.shape[0] != steps + 1:
-            self.points = np.empty((steps + 1, self.n, self.dim))
-        self.points[0] = points
+    def begin(self, qpos: FloatArray, commanded: FloatArray | None, steps: int) -> None:
+        """A stretch of ``steps`` physics steps from the engine's positions ``qpos``, meant to
+        move the points at ``commanded`` (None: no tracking error is taken)."""
+        if self.qpos.shape[0] != steps + 1:
+            self.qpos = np.empty((steps + 1, qpos.shape[0]))
+        self.qpos[0] = qpos
         self.stretch = {}
         self.commanded = np.zeros((self.n, self.dim)) if commanded is None else commanded
         self.tracked = commanded is not None
 
-    def physics_step(self, data: mujoco.MjData, points: FloatArray, sub: int) -> None:
-        self.points[sub + 1] = points
+    def physics_step(self, data: mujoco.MjData, sub: int) -> None:
+        self.qpos[sub + 1] = data.qpos
         self.steps += 1
         if not self.touching and not data.sensordata.any():  # no robot's body touches anything
             return
@@ -81,7 +89,7 @@ class Judge:
                 self.deepest = min(self.deepest, depth)
                 self.stretch[pair] = min(self.stretch.get(pair, 0.0), depth)
         for pair in sorted(now - self.touching):
-            self._onset(*pair, points, data)
+            self._onset(*pair, self.points_of(self.qpos[sub + 1 : sub + 2])[0], data)
         self.touching = now
 
     def _onset(self, agent: int, other: int, points: FloatArray, data: mujoco.MjData) -> None:
@@ -96,8 +104,8 @@ class Judge:
         approach = float(self.commanded[agent] @ towards) / size if size > 0 else 0.0
         self.at_fault += approach > TOWARDS
 
-    def end(self, points: FloatArray, elapsed: float) -> None:
-        path = self.points
+    def end(self, elapsed: float) -> None:
+        path = self.points_of(self.qpos)
         if len(self.radii):
             gaps = np.linalg.norm(path[:, :, None, :] - self.centres, axis=-1) - self.radii
             self.clearance = min(self.clearance, float(gaps.min()))
@@ -105,7 +113,7 @@ class Judge:
             apart = np.linalg.norm(path[:, self.upper[0]] - path[:, self.upper[1]], axis=-1)
             self.distance = min(self.distance, float(apart.min()))
         if self.tracked:
-            achieved = (points - path[0]) / elapsed
+            achieved = (path[-1] - path[0]) / elapsed
             self.tracking.append(np.linalg.norm(achieved - self.commanded, axis=-1))
 
     def stretch_contacts(self) -> tuple[tuple[float, float, float], ...]:
