@@ -205,7 +205,7 @@ def cap_to_limits(velocity: Vector, sides: Sequence[LimitSide], heading: float) 
         if nearest > speed:
             break
         rate = nx * wx + ny * wy
-        if rate > c:
+        if rate > c * _CAP_SLACK:  # on the edge up to rounding is inside, as in cap_speed
             k = min(k, c / rate)
     if k == 1.0:
         return velocity
