@@ -68,10 +68,9 @@ def _where_the_log_is(out: Path) -> str:
 @click.option(
     "--clock",
     type=click.Choice([c.value for c in Clock]),
-    default=Clock.LOCKSTEP.value,
     help="lockstep: the world advances once every live agent's command for the tick is in "
     "(exact, deterministic); realtime: the world integrates at a fixed wall-clock rate with "
-    "each agent's latest command.",
+    "each agent's latest command. [default: lockstep; realtime with --robots ros2]",
 )
 @click.option(
     "--mode",
@@ -132,6 +131,7 @@ def run(**params: Any) -> None:
     if params["mode"] is not None:
         warn("run: --mode is now --clock (the word the summary, the docs and the world use)")
         params["clock"] = params["mode"]
+    params["clock"] = _clock(params["clock"], params["robots"])
     _validate(params)
     config = RunConfig(
         plan=_plan(params), as_json=params["as_json"], foxglove=params["foxglove"],
@@ -153,6 +153,15 @@ class RunConfig:
     live_wait: bool = False  # … and start once a viewer has subscribed
 
 
+def _clock(given: str | None, robots: str | None) -> str:
+    """The run's clock: as given, else realtime for ROS 2 robots (they move on the wall
+    clock: nothing else can drive them) and lockstep for everything else. An explicit
+    lockstep with robots stays given, for `_validate` to refuse by name."""
+    if given is not None:
+        return given
+    return Clock.REALTIME.value if robots == "ros2" else Clock.LOCKSTEP.value
+
+
 def _validate(params: Mapping[str, Any]) -> None:
     """Refuse what cannot run, before anything starts (the options as click parsed them)."""
     clock, speed, robots = params["clock"], params["speed"], params["robots"]
@@ -170,9 +179,16 @@ def _validate(params: Mapping[str, Any]) -> None:
             "message cannot go out before it is sent",
             param_hint="--jitter-ms",
         )
-    if robots == "ros2" and (clock != Clock.REALTIME or speed != 1.0):
+    if robots == "ros2" and clock != Clock.REALTIME:
         raise click.BadParameter(
-            "needs --clock realtime at --speed 1: robots move on the wall clock",
+            f"robots move on the wall clock: --clock {clock} cannot drive them (leave --clock "
+            "out, or give --clock realtime)",
+            param_hint="--robots",
+        )
+    if robots == "ros2" and speed != 1.0:
+        raise click.BadParameter(
+            f"robots move on the wall clock: --speed {speed:g} would need them faster or "
+            "slower than they are (leave --speed at 1)",
             param_hint="--robots",
         )
     if robots == "ros2":
