@@ -415,6 +415,12 @@ def _parked_movers(s: Scenario) -> None:
             )
 
 
+# What the unicycle's terms are, said after its reach (Scenario.body_reach, world/unicycle.py)
+_REACH = (
+    " (a unicycle's reach; l·x²/2 is its point's departure from its chord, sin x = v_max·dt/2l)"
+)
+
+
 def _safety(s: Scenario) -> None:
     """What the safety filter's theorem needs of the scenario (module docstring, (D) and (F))."""
     c = s.control
@@ -428,19 +434,22 @@ def _safety(s: Scenario) -> None:
             f"limits in any direction ({s.unicycle.fastest_point(s.dt):.6g} m/s: max_speed, "
             "lookahead·max_turn_rate and the wheels', and no more than lookahead/dt)",
         )
-    reach, what = s.agent_radius, "agent_radius"
+    reach, what, terms, twice, also = s.agent_radius, "agent_radius", "", "2·agent_radius", ""
     if s.unicycle is not None:  # the body is l behind the point, and the point leaves its chord
-        reach, what = s.body_reach, "agent_radius + l + l·x²/2 (a unicycle's reach)"
+        reach, what = s.body_reach, "agent_radius + l + l·x²/2"
+        sum_ = f"{s.agent_radius:.6g} + {s.unicycle.lookahead:.6g} + {s.arc_departure:.6g}"
+        terms, twice = f" = {sum_}", f"2·({what}) = 2·({sum_})"
+        also = _REACH
     if c.safety_margin < reach:
         raise ScenarioError(
             "control.safety_margin",
-            f"ρ = {c.safety_margin} m is less than {what} = {reach:.6g} m: the "
+            f"ρ = {c.safety_margin} m is less than {what}{terms} = {reach:.6g} m{also}: the "
             "filter's guard circles would not keep the agents' bodies off the obstacles",
         )
     if s.separation < 2 * reach:
         raise ScenarioError(
             "control.separation",
-            f"{s.separation} m is less than 2·{what} = {2 * reach:.6g} m: the filter "
+            f"{s.separation} m is less than {twice} = {2 * reach:.6g} m{also}: the filter "
             "would let two agents' bodies touch",
         )
     step = s.largest_step
