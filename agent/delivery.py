@@ -37,8 +37,8 @@ def freshest(
 ) -> tuple[dict[int, AgentState], dict[int, int]]:
     """The neighbour states to act on at tick ``now``, and the age (ticks) of each one heard.
 
-    latest : the newest state heard from each neighbour (any tick ≤ now + 1: a neighbour may
-        already have announced the next tick).
+    latest : the newest state heard from each neighbour (any tick ≤ now + STALE_AFTER: a
+        neighbour may already have announced later ticks than this agent has sensed).
     Returns (used, ages): ``used`` holds the states at most ``max_age`` ticks old; ``ages`` has
     an entry, clipped at 0, for every neighbour in ``listens_to`` that was heard at all.
     """

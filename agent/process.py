@@ -32,7 +32,7 @@ from shoal.bus.messages import AgentState, Sensing
 from shoal.bus.report import pss_kb, report_body
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import AgentConfig, Clock
+from shoal.bus.types import STALE_AFTER, AgentConfig, Clock
 
 
 class AgentAbort(RuntimeError):
@@ -49,6 +49,7 @@ class AgentOptions:
     delay_ms: float = 0.0  # fault injection: outgoing states and commands held back this long
     jitter_ms: float = 0.0  # … ± this much (uniform, ≤ delay_ms)
     max_age: int = MAX_AGE  # realtime: ticks after which a neighbour's state is not followed
+    stale_after: int = STALE_AFTER  # realtime: how far a neighbour's state may be ahead of ours
 
 
 def fetch_config(bus: Bus, keys: Keys, agent_id: int, timeout: float) -> tuple[AgentConfig, str]:
@@ -231,16 +232,26 @@ class AgentNode(Declarations):
 
     def _check_state(self, state: AgentState, key: str) -> None:
         """A neighbour's state must be its own, of our dimension, and of a tick it can have
-        reached: it cannot be more than one tick ahead of the last sensing we had, because the
-        world does not send tick k+1 before our command of tick k (in lockstep it cannot be
-        older than the tick before either)."""
+        reached. In lockstep that is the tick before our last sensing, that one, or the next
+        (the world does not send tick k+1 before our command of tick k). In realtime our own
+        sensing may be late or lost while the neighbour's came: a state up to ``stale_after``
+        ticks ahead of our last sensing is as new as a command the world's watchdog still
+        applies (bus/types.py STALE_AFTER), and is kept; one further ahead is refused, so that
+        a stray tick far in the future cannot pin a neighbour's freshest state for good."""
         if state.agent_id != agent_of(key):
             raise DecodeError(f"state of agent {state.agent_id} on another agent's key")
         if len(state.position) != self.controller.config.dim:
             raise DecodeError(f"state position has {len(state.position)} coordinates")
-        oldest = self.tick - 1 if self.clock == Clock.LOCKSTEP else 0
-        if not oldest <= state.tick <= self.tick + 1:
-            raise DecodeError(f"state of tick {state.tick} while at tick {self.tick}")
+        if self.clock == Clock.LOCKSTEP:
+            if not self.tick - 1 <= state.tick <= self.tick + 1:
+                raise DecodeError(f"state of tick {state.tick} while at tick {self.tick}")
+            return
+        ahead = max(self.options.stale_after, 1)
+        if not 0 <= state.tick <= self.tick + ahead:
+            raise DecodeError(
+                f"state of tick {state.tick} while at tick {self.tick}: more than {ahead} "
+                "ticks ahead, beyond the world's watchdog (a command that late is held)"
+            )
 
     def _sensed(self, sensing: Sensing) -> None:
         dim = self.controller.config.dim

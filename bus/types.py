@@ -31,6 +31,14 @@ class Safety(StrEnum):
     PAPER = "paper"  # the paper's Algorithm 2 alone, unfiltered
 
 
+STALE_AFTER = 5
+"""Realtime: ticks after which the world's watchdog applies no command of an agent (a command
+of tick t is held at tick k > t + STALE_AFTER: world/process.py). The same figure bounds how far
+a neighbour's state may run ahead of an agent's own last sensing (agent/process.py): an agent
+whose sensing is that late, or lost that many ticks in a row, still has its commands applied, so
+a neighbour that far ahead is news, not a bad message."""
+
+
 class Clock(StrEnum):
     """How a run's ticks advance (docs/wire.md)."""
 

@@ -27,7 +27,7 @@ from shoal.bus.messages import AgentState, Command, Event, RobotsRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import AgentConfig, Clock, SafetyLayer, Waypoints
+from shoal.bus.types import STALE_AFTER, AgentConfig, Clock, SafetyLayer, Waypoints
 from shoal.world.layers import make_layer
 from shoal.world.metrics import summarize
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
@@ -48,7 +48,7 @@ class WorldOptions:
     expect: tuple[str, ...] = ()  # other processes (logger, monitor) to wait for
     clock: Clock = Clock.LOCKSTEP
     speed: float = 1.0  # realtime: simulated seconds per wall-clock second
-    stale_after: int = 5  # realtime: a command older than this many ticks is not applied
+    stale_after: int = STALE_AFTER  # realtime: a command older than this many ticks is held
     layer: SafetyLayer | None = None  # None: onboard in realtime, the referee in lockstep
     link: Link | None = None  # onboard: the robots' own radio (ticks late, lost)
     layer_epoch: float = 0.1  # onboard: s of simulated time between the robots' snapshots
