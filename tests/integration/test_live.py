@@ -31,7 +31,7 @@ from shoal.bus import codec
 from shoal.tools.foxglove import stream as stream_module
 from shoal.tools.foxglove.export import sibling
 from shoal.tools.foxglove.live import BACKLOG, PLOT_RATE, LiveView
-from shoal.tools.foxglove.plots import FILTER, plots
+from shoal.tools.foxglove.plots import FILTER, TRACKING, plots
 from shoal.tools.foxglove.plots import TOPICS as METRICS
 from shoal.tools.foxglove.stream import Stream
 from shoal.tools.foxglove.views import (
@@ -85,9 +85,12 @@ CROSSING = load_scenario("crossing").source  # people walk at it: the filter act
 
 @pytest.mark.parametrize("text, gone", [(TINY, GONE_AT), (TINY_PEOPLE, None), (CROSSING, None)])
 def test_the_stream_builds_the_exports_messages(text: str, gone: int | None) -> None:
+    """Every message but the tracking metric, which only the export has: a tick's achieved
+    velocity needs the next tick's positions, which a live view has not had yet."""
     run = reference_log(text, gone=gone)
     options = ViewOptions(scene_hz=10.0, plot_hz=20.0)
-    exported, live = list(views(run, options)), streamed(run, options)
+    exported = [v for v in views(run, options) if v.topic != TRACKING]
+    live = streamed(run, options)
     assert len(live) == len(exported) > 600
     assert keyed(live) == keyed(exported)
     assert {v.topic for v in live} == {v.topic for v in exported}

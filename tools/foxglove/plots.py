@@ -1,5 +1,5 @@
 """The scalar channels for Foxglove's Plot panel: formation error, distances, clearance, σ, Ω,
-and the safety filter's activity.
+the safety filter's activity, and (in the exported views) how each agent tracked its command.
 
 Each message has ``tick``, ``t`` (simulated seconds, for a Plot whose x axis is a message path)
 and a headline ``value``; ``agents`` (or ``edges``) break it down, to be picked out in a Plot
@@ -36,6 +36,7 @@ CLEARANCE = "/shoal/metrics/clearance"
 SIGMA = "/shoal/metrics/sigma"
 OMEGA = "/shoal/metrics/omega"
 FILTER = "/shoal/metrics/filter"
+TRACKING = "/shoal/metrics/tracking"  # exported views only: it needs the next tick's positions
 
 
 def _number(description: str) -> Json:
@@ -123,6 +124,18 @@ SCHEMAS: dict[str, Json] = {
         {"id": _integer("agent id"), "value": _integer("1 if its filter changed its command")},
         value=_integer("number of agents whose filter changed their command"),
         fraction=_number("that number over all agents (its mean is the summary's filter_activity)"),
+    ),
+    "shoal.Tracking": _schema(
+        "shoal.Tracking",
+        "Commanded against achieved velocity: each agent's point over the tick, as its plant "
+        "moved it (the world's kinematics exactly; robots with mass lag: docs/physics.md)",
+        {
+            "id": _integer("agent id"),
+            "value": _number("|achieved − commanded| velocity, m/s"),
+            "commanded": _number("commanded speed, m/s"),
+            "achieved": _number("achieved speed over the tick, m/s"),
+        },
+        value=_number("largest |achieved − commanded| velocity over the agents, m/s"),
     ),
 }
 
@@ -235,3 +248,32 @@ def plots(scenario: Scenario, records: Sequence[TickRecord]) -> list[dict[str, J
 def _rounded(a: Any) -> list[list[float]]:
     """Rows of plain floats rounded to µm, all at once (numpy), for the JSON."""
     return list(np.round(np.asarray(a, dtype=np.float64), DIGITS).tolist())
+
+
+def tracking(
+    scenario: Scenario, records: Sequence[TickRecord], after: Sequence[Sequence[float]] | None
+) -> list[Json]:
+    """For each of ``records`` (consecutive ticks), its message on :data:`TRACKING`: each
+    agent's achieved velocity over the tick, from where the next record has it (``after``: the
+    positions of the tick after the last, None at the run's end: integrated from its command
+    as the log's readers do) against the one commanded."""
+    dt = scenario.dt
+    start = np.asarray([r.positions for r in records], dtype=np.float64)
+    commanded = np.asarray([r.velocities for r in records], dtype=np.float64)
+    last = start[-1] + dt * commanded[-1] if after is None else np.asarray(after, dtype=np.float64)
+    achieved = (np.concatenate([start[1:], last[None]]) - start) / dt
+    gap = _rounded(np.linalg.norm(achieved - commanded, axis=-1))
+    asked = _rounded(np.linalg.norm(commanded, axis=-1))
+    got = _rounded(np.linalg.norm(achieved, axis=-1))
+    return [
+        {
+            "tick": r.tick,
+            "t": round(r.tick * dt, DIGITS),
+            "value": max(gap[k]),
+            "agents": [
+                {"id": i + 1, "value": e, "commanded": c, "achieved": a}
+                for i, (e, c, a) in enumerate(zip(gap[k], asked[k], got[k], strict=True))
+            ],
+        }
+        for k, r in enumerate(records)
+    ]

@@ -29,7 +29,7 @@ from shoal.geometry.vectors import FloatArray
 from shoal.tools.foxglove.msgs import Json, log, vec3s
 from shoal.tools.foxglove.plots import SCHEMAS as PLOT_SCHEMAS
 from shoal.tools.foxglove.plots import TOPICS as PLOT_TOPICS
-from shoal.tools.foxglove.plots import plots
+from shoal.tools.foxglove.plots import TRACKING, plots, tracking
 from shoal.tools.foxglove.scene import Layers
 from shoal.world.scenario import Scenario
 
@@ -53,6 +53,7 @@ TOPICS: dict[str, str] = {  # topic → schema name, in the order the channels a
     FRAMES: "foxglove.FrameTransforms",
     LOG: "foxglove.Log",
     **PLOT_TOPICS,
+    TRACKING: "shoal.Tracking",
 }
 SCHEMAS_VERSION = "2.1.0"  # of npm @foxglove/schemas, that tools/foxglove/schemas/ holds
 BLOCK = 512  # ticks whose metrics are computed at once: bounded memory for any run length
@@ -121,7 +122,10 @@ def views(
     last = len(run.ticks) - 1
     for start in range(0, len(run.ticks), BLOCK):
         block = run.ticks[start : start + BLOCK]
-        metrics = plots(s, [r for _ns, r in block])
+        records = [r for _ns, r in block]
+        metrics = plots(s, records)
+        following = run.ticks[start + BLOCK][1] if start + BLOCK < len(run.ticks) else None
+        tracked = tracking(s, records, None if following is None else following.positions)
         for j, (ns, r) in enumerate(block):
             while events and events[-1][0] <= ns:
                 yield event_view(*events.pop())
@@ -130,6 +134,7 @@ def views(
             if r.tick % plot == 0 or final:
                 for topic, message in metrics[j].items():
                     yield View(topic, ns, message)
+                yield View(TRACKING, ns, tracked[j])
             for level, name, text in changes_between(s, prev, r):
                 yield View(LOG, ns, log(ns, level, text, name))
             prev = r
