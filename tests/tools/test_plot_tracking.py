@@ -46,3 +46,25 @@ def test_robots_with_mass_lag_behind_their_commands_and_the_figure_shows_it() ->
     achieved = achieved_velocities(traj)
     change = np.linalg.norm(np.diff(achieved, axis=0), axis=-1)
     assert change.max() <= 4.0 * scn.dt * (1 + 1e-6)
+
+
+def test_foxglove_views_plot_the_tracking_of_every_tick_across_blocks() -> None:
+    """The exported views' tracking channel: one message per plotted tick, the world's
+    kinematics tracked up to rounding, and a block's last tick judged against the next block's
+    first positions (BLOCK ticks per block)."""
+    from runlogs import TINY, reference_log
+
+    from shoal.tools.foxglove.plots import TRACKING, tracking
+    from shoal.tools.foxglove.views import BLOCK, ViewOptions, views
+
+    run = reference_log(TINY.replace("duration: 4.0", "duration: 12.0"))
+    got = [v.message for v in views(run, ViewOptions(plot_hz=1000.0)) if v.topic == TRACKING]
+    assert [m["tick"] for m in got] == [r.tick for _ns, r in run.ticks]
+    assert max(m["value"] for m in got) < 1e-6
+    records = [r for _ns, r in run.ticks]
+    assert len(records) > BLOCK
+    # a block's last tick: judged from the next record, not integrated from its own command
+    moved = [list(p) for p in records[BLOCK].positions]
+    moved[0][0] += 0.01 * run.scenario.dt  # as if robot 1 had gone 0.01 m/s faster
+    last = tracking(run.scenario, records[:BLOCK], moved)[-1]
+    assert last["agents"][0]["value"] == pytest.approx(0.01, abs=1e-6)
