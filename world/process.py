@@ -28,11 +28,13 @@ from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
 from shoal.bus.types import STALE_AFTER, AgentConfig, Clock, SafetyLayer, Waypoints
+from shoal.geometry.vectors import FloatArray
 from shoal.world.layers import make_layer
 from shoal.world.metrics import summarize
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
 from shoal.world.plant import KINEMATICS, Kinematics, Observed, Plant, PlantError
 from shoal.world.scenario import Scenario
+from shoal.world.start import misplaced
 from shoal.world.step import Report, Step
 from shoal.world.trajectory import Trajectory
 from shoal.world.watch import LeaderWatch
@@ -167,6 +169,20 @@ class World(Declarations):
                 raise WorldAbort(str(exc)) from None
         self.scenario_out.put(codec.encode_document("scenario", self._scenario_document()))
 
+    def _check_starts(self, positions: FloatArray) -> None:
+        """Real robots far from their scenario starts (world/start.py), judged on the poses of
+        tick 0 (the plant's first observation, before any sensing or command goes out): a
+        warning event for each beyond its body's reach; a refusal for any beyond the sensing
+        radius or halfway to another agent's start. Simulated plants start exactly there."""
+        if not self.robots:
+            return
+        found = misplaced(positions, self.scenario)
+        for m in found:
+            self._event(0, 4 if m.refused else 3, m.agent, m.text())
+        refused = [m.text() for m in found if m.refused]
+        if refused:
+            raise WorldAbort("; ".join(refused))
+
     def _scenario_document(self) -> dict[str, Any]:
         """The scenario as the log records it: its text, under the name it ran as, and the
         simulated plant that moved it unless the world's own kinematics did."""
@@ -217,6 +233,8 @@ class World(Declarations):
         for k in range(s.steps):
             clock.sent(k)
             sensings = step.sense(k)
+            if k == 0:
+                self._check_starts(step.seen.positions)
             for i in sorted(step.newly_stale):
                 self._event(k, 3, i, f"robot {i}'s pose is stale; held still until it reports")
             said = watch.update(k, step.seen.positions[0])
