@@ -95,6 +95,7 @@ PRESETS: dict[str, Dynamics] = {
     ),
 }  # fmt: skip
 
+MIN_TIMESTEP = 1e-5  # s: a finer physics step costs a hundred steps per millisecond simulated
 FIELDS = tuple(f.name for f in dataclasses.fields(Dynamics) if f.name not in ("preset", "drive"))
 
 
@@ -130,7 +131,19 @@ class DynamicsSetup:
                     f"dynamics.{key}", f"is not a figure of a {base.drive} drive ({base.preset})"
                 )
         changed: dict[str, Any] = dict(self.overrides)
-        return dataclasses.replace(base, **changed)
+        robot = dataclasses.replace(base, **changed)
+        if robot.loop_time < 2 * robot.timestep:
+            where = "dynamics.loop_time" if "loop_time" in changed else "dynamics.timestep"
+            raise ScenarioError(
+                where,
+                f"the velocity loop's time constant {robot.loop_time:g} s must be at least two "
+                f"physics steps ({robot.timestep:g} s each), or its discrete loop oscillates",
+            )
+        if robot.timestep < MIN_TIMESTEP:
+            raise ScenarioError(
+                "dynamics.timestep", f"{robot.timestep:g} s is below {MIN_TIMESTEP:g} s"
+            )
+        return robot
 
 
 def setup(value: Any) -> DynamicsSetup | None:

@@ -174,3 +174,36 @@ def test_the_world_publishes_the_engines_bodies_every_tick() -> None:
     assert touched and all(c[0] == 2 and c[1] == scn.n + 1 and c[2] < 0 for r in touched
                            for c in r.contacts)  # fmt: skip
     assert summary["engine_contacts"] >= 1 and summary["plant"] == "mujoco"
+
+
+@pytest.mark.parametrize(
+    ("section", "field", "words"),
+    [
+        ("{preset: holonomic, loop_time: 0.001}", "dynamics.loop_time", "two physics steps"),
+        ("{preset: holonomic, timestep: 0.015}", "dynamics.timestep", "two physics steps"),
+        ("{preset: holonomic, timestep: 0.000001, loop_time: 0.001}", "dynamics.timestep",
+         "below"),
+    ],
+)  # fmt: skip
+def test_a_velocity_loop_the_physics_step_cannot_resolve_is_refused(
+    section: str, field: str, words: str
+) -> None:
+    text = load_scenario("default").source + f"dynamics: {section}\n"
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text)
+    assert caught.value.field == field and words in str(caught.value)
+
+
+def test_a_diverging_engine_is_an_error_not_robots_back_at_their_starts() -> None:
+    """MuJoCo resets a state gone non-finite and warns; the plant must say so, not go on from
+    the reset. A base of a microgram under a 4 m/s² loop diverges at once."""
+    from shoal.world.physics.engine import Engine
+    from shoal.world.plant import PlantError
+
+    scn = dataclasses.replace(load_scenario("default"), duration=0.5)
+    robots = tuple(dataclasses.replace(r, mass=1e-9) for r in scn.robot_dynamics())
+    plant = Engine(scn, robots)
+    plant.data.qvel[:] = 1e30  # as a blow-up leaves it
+    with pytest.raises(PlantError, match="diverged"):
+        seen = plant.observe()
+        plant.send(np.ones((scn.n, 2)), seen.headings)

@@ -13,6 +13,7 @@ from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.children import PLANT_OPTIONS, WorldSpec, click_options
 from shoal.tools.simulator import reference
 from shoal.world.metrics import summarize
+from shoal.world.plant import PlantError
 
 
 @click.command()
@@ -45,9 +46,12 @@ def simulate(
     with click.progressbar(
         length=scn.steps, label=f"simulating {scn.name}", file=sys.stderr, hidden=not show_bar
     ) as bar:
-        traj, judged = reference(
-            scn, progress=lambda _k: bar.update(1), plant=plant, dynamics=dynamics
-        )
+        try:
+            traj, judged = reference(
+                scn, progress=lambda _k: bar.update(1), plant=plant, dynamics=dynamics
+            )
+        except PlantError as exc:
+            raise click.ClickException(f"{scn.name}: {exc}") from None
     summary = json_safe({**summarize(scn, traj).as_dict(), **judged})
     if out is not None:
         traj.save(out)

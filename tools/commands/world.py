@@ -25,7 +25,7 @@ from shoal.tools.procs.session import (
     session_config,
 )
 from shoal.world.onboard import Link
-from shoal.world.plant import KINEMATICS, Plant, simulated
+from shoal.world.plant import KINEMATICS, Plant, PlantError, simulated
 from shoal.world.process import World, WorldAbort, WorldOptions
 from shoal.world.scenario import Scenario
 
@@ -125,7 +125,7 @@ def world(as_json: bool, **params: Any) -> None:
             with World(scn, options, ZenohBus(session)) as w:
                 w.wait_for_everyone()
                 summary = json_safe(w.run())
-        except WorldAbort as exc:
+        except (WorldAbort, PlantError) as exc:
             raise click.ClickException(str(exc)) from None
     click.echo(json.dumps(summary) if as_json else render_summary(summary))
     if summary.get("aborted"):

@@ -31,10 +31,15 @@ from shoal.geometry.vectors import FloatArray
 from shoal.world.dynamics import Drive, Dynamics
 from shoal.world.physics.judge import Judge
 from shoal.world.physics.model import layout
-from shoal.world.plant import Movers, Observed
+from shoal.world.plant import Movers, Observed, PlantError
 from shoal.world.scenario import Scenario
 from shoal.world.unicycle import wheel_command
 
+_DIVERGED = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
 PINNED = "4.0.1"  # pyproject.toml's pin: physics runs are bit-exact within one MuJoCo version
 
 
@@ -190,7 +195,21 @@ class Engine:
                 self._walk(movers, (sub + 1) / steps)
             self._physics_step()
             self.judge.physics_step(self.data, sub)
+        self._check_finite()
         self.judge.end(steps * self.timestep)
+
+    def _check_finite(self) -> None:
+        """:class:`PlantError` if the engine diverged: MuJoCo resets a state that has gone
+        non-finite or huge (and warns), which would put robots back at their starts unseen."""
+        d = self.data
+        bad = [w for w in _DIVERGED if d.warning[w].number > 0]
+        if bad or not np.isfinite(d.qpos).all():
+            t = self.step_count * self.timestep
+            raise PlantError(
+                f"the physics diverged at {t:.3f} s of simulated time (MuJoCo: "
+                f"{', '.join(w.name for w in bad) or 'non-finite positions'}): a physics step "
+                "too long for the robots' loops or masses (dynamics.timestep, loop_time, mass)"
+            )
 
     def stop(self) -> None:
         """Zero set-points from now (the engine does not step until the next :meth:`send`)."""
