@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from physics_cases import CRASH
 
 from shoal.tools.cli import main
 from shoal.tools.simulator import reference
@@ -21,20 +22,6 @@ from shoal.world.metrics import summarize
 from shoal.world.plant import MUJOCO, simulated
 
 pytest.importorskip("mujoco", reason="the physics extra: pip install 'shoal[physics]'")
-
-CRASH = """
-name: crash
-description: The paper's law alone drives a follower through an obstacle.
-dt: 0.01
-duration: 6.0
-agent_radius: 0.1
-control: {alpha: 1.0, beta: 0.5, sensing_radius: 0.45, trigger_radius: 0.35, epsilon: 0.05,
-          safety_margin: 0.05, safety: paper}
-graph: {edges: [[1, 2]]}
-agents: [{offset: [0, 0]}, {offset: [0, -1]}]
-leader: {waypoints: [[0, 0], [4, 0]], speed: 0.4}
-obstacles: [{centre: [2, -1], radius: 0.2}]
-"""
 
 
 @pytest.mark.parametrize("name", builtin_names())

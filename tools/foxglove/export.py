@@ -35,7 +35,7 @@ from mcap.writer import CompressionType, Writer
 
 from shoal.bus import codec
 from shoal.bus.errors import DecodeError
-from shoal.bus.messages import Event, TickRecord
+from shoal.bus.messages import Event, PlantRecord, TickRecord
 from shoal.bus.runtime import warn
 from shoal.tools.foxglove.views import (
     SCHEMAS_VERSION,
@@ -52,7 +52,7 @@ from shoal.world.errors import ScenarioError
 
 CHUNK_BYTES = 1024 * 1024  # mcap's default: a reader (Foxglove) seeks in steps of one chunk
 SUFFIX = ".foxglove.mcap"
-WORLD_KINDS = ("tick", "event", "scenario", "summary")
+WORLD_KINDS = ("tick", "event", "scenario", "summary", "plant")
 _U16, _U64 = struct.Struct("<H"), struct.Struct("<Q")
 # Compact UTF-8 JSON; a NaN or infinity (not JSON) is an error, not a silent "NaN" token.
 _ENCODE = json.JSONEncoder(
@@ -74,6 +74,7 @@ class Source:
     summary: dict[str, Any] | None = None
     ticks: dict[int, tuple[int, TickRecord]] = field(default_factory=dict)  # tick → (ns, record)
     events: list[tuple[int, Event]] = field(default_factory=list)
+    plants: dict[int, PlantRecord] = field(default_factory=dict)  # tick → a physics plant's
     skipped: int = 0  # messages on the world's keys that did not decode or did not fit
 
 
@@ -158,6 +159,9 @@ def _take(src: Source, kind: str, data: bytes, ns: int) -> None:
             src.ticks.setdefault(record.tick, (ns, record))
         elif kind == "event":
             src.events.append((ns, codec.decode_event(data)))
+        elif kind == "plant":
+            plant = codec.decode_plant(data)
+            src.plants.setdefault(plant.tick, plant)
         elif kind == "scenario" and not src.scenario:
             src.scenario, src.scenario_ns = codec.decode_document("scenario", data), ns
         elif kind == "summary":
@@ -183,7 +187,9 @@ def run_log(path: Path, src: Source) -> RunLog:
             src.skipped += 1
     if not ticks:
         raise ExportError(f"{path}: no tick records")
-    return RunLog(scenario, src.scenario_ns or ticks[0][0], ticks, src.events)
+    plants = {k: p for k, p in src.plants.items() if len(p.bodies) == scenario.n}
+    src.skipped += len(src.plants) - len(plants)
+    return RunLog(scenario, src.scenario_ns or ticks[0][0], ticks, src.events, plants)
 
 
 def export(

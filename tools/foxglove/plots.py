@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from shoal.bus.messages import TickRecord
+from shoal.bus.messages import PlantRecord, TickRecord
 from shoal.bus.types import Safety
 from shoal.tools.foxglove.msgs import Json
 from shoal.world.metrics import clearances, formation_errors, pair_distances
@@ -37,6 +37,7 @@ SIGMA = "/shoal/metrics/sigma"
 OMEGA = "/shoal/metrics/omega"
 FILTER = "/shoal/metrics/filter"
 TRACKING = "/shoal/metrics/tracking"  # exported views only: it needs the next tick's positions
+PLANT = "/shoal/plant"  # exported views of a physics run only (the log's plant records)
 
 
 def _number(description: str) -> Json:
@@ -136,6 +137,28 @@ SCHEMAS: dict[str, Json] = {
             "achieved": _number("achieved speed over the tick, m/s"),
         },
         value=_number("largest |achieved − commanded| velocity over the agents, m/s"),
+    ),
+    "shoal.Plant": _schema(
+        "shoal.Plant",
+        "A physics plant's robots as the engine moved them, at the tick's end (docs/physics.md)",
+        {
+            "id": _integer("agent id"),
+            "value": _number("its body's speed, m/s"),
+            "turn_rate": _number("its yaw rate, rad/s (0 in 3-D)"),
+            "contacts": _integer("contacts the engine reported for it during the tick"),
+            "motors": {
+                "type": "array",
+                "items": _object(
+                    {
+                        "index": _integer("the motor's index on the robot (left, right; x, y, z)"),
+                        "speed": _number("its joint's speed: a wheel's rad/s, a slide's m/s"),
+                        "effort": _number("what it applied: N·m or N"),
+                    }
+                ),
+                "description": "the robot's motors",
+            },
+        },
+        value=_integer("contacts the engine reported during the tick"),
     ),
 }
 
@@ -277,3 +300,31 @@ def tracking(
         }
         for k, r in enumerate(records)
     ]
+
+
+def plant_message(scenario: Scenario, r: PlantRecord) -> Json:
+    """A physics plant's record of a tick on :data:`PLANT`: each robot's speed, yaw rate,
+    contacts and motors (a wheeled robot's two, a base's one per axis, in agent order)."""
+    s = scenario
+    ell = s.lookaheads
+    counts = [2 if ell is not None and ell[i] > 0 else s.dim for i in range(s.n)]
+    starts = list(itertools.accumulate(counts, initial=0))
+    touched = [0] * s.n
+    for agent, other, _depth in r.contacts:
+        for who in {int(agent), int(other)}:
+            if 1 <= who <= s.n:
+                touched[who - 1] += 1
+    speeds = _rounded([np.linalg.norm(np.asarray(r.velocities), axis=-1)])[0]
+    turns = [round(x, DIGITS) for x in r.turn_rates] or [0.0] * s.n
+    agents = []
+    for i in range(s.n):
+        span = range(starts[i], starts[i + 1])
+        motors = [
+            {"index": j - starts[i], "speed": round(r.motor_speeds[j], DIGITS),
+             "effort": round(r.motor_efforts[j], DIGITS)}
+            for j in span if j < len(r.motor_speeds)
+        ]  # fmt: skip
+        agents.append({"id": i + 1, "value": speeds[i], "turn_rate": turns[i],
+                       "contacts": touched[i], "motors": motors})  # fmt: skip
+    return {"tick": r.tick, "t": round(r.tick * s.dt, DIGITS), "value": len(r.contacts),
+            "agents": agents}  # fmt: skip

@@ -18,18 +18,18 @@ tools/foxglove/scene.py, agent frames, a log, and the scalar channels of tools/f
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from importlib import resources
 
 import numpy as np
 
-from shoal.bus.messages import Event, TickRecord
+from shoal.bus.messages import Event, PlantRecord, TickRecord
 from shoal.geometry.vectors import FloatArray
 from shoal.tools.foxglove.msgs import Json, log, vec3s
+from shoal.tools.foxglove.plots import PLANT, TRACKING, plant_message, plots, tracking
 from shoal.tools.foxglove.plots import SCHEMAS as PLOT_SCHEMAS
 from shoal.tools.foxglove.plots import TOPICS as PLOT_TOPICS
-from shoal.tools.foxglove.plots import TRACKING, plots, tracking
 from shoal.tools.foxglove.scene import Layers
 from shoal.world.scenario import Scenario
 
@@ -54,6 +54,7 @@ TOPICS: dict[str, str] = {  # topic → schema name, in the order the channels a
     LOG: "foxglove.Log",
     **PLOT_TOPICS,
     TRACKING: "shoal.Tracking",
+    PLANT: "shoal.Plant",
 }
 SCHEMAS_VERSION = "2.1.0"  # of npm @foxglove/schemas, that tools/foxglove/schemas/ holds
 BLOCK = 512  # ticks whose metrics are computed at once: bounded memory for any run length
@@ -69,6 +70,7 @@ class RunLog:
     start_ns: int
     ticks: Sequence[tuple[int, TickRecord]]
     events: Sequence[tuple[int, Event]] = ()
+    plants: Mapping[int, PlantRecord] = field(default_factory=dict)  # tick → a physics plant's
 
 
 @dataclass(frozen=True)
@@ -135,6 +137,8 @@ def views(
                 for topic, message in metrics[j].items():
                     yield View(topic, ns, message)
                 yield View(TRACKING, ns, tracked[j])
+                if (moved := run.plants.get(r.tick)) is not None:
+                    yield View(PLANT, ns, plant_message(s, moved))
             for level, name, text in changes_between(s, prev, r):
                 yield View(LOG, ns, log(ns, level, text, name))
             prev = r
