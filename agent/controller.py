@@ -26,7 +26,7 @@ from shoal.agent.leader import Known, lead, remember, steer
 from shoal.bus.messages import AgentState, Command, Sensing, picklable
 from shoal.bus.types import AgentConfig, Waypoints
 from shoal.geometry.path import leader_velocity
-from shoal.geometry.safety import SafetyFilter
+from shoal.geometry.safety import SafetyFilter, cap_to_limits
 from shoal.geometry.vectors import Vector, VectorLike, norm, segment_distance, shaped_vector, sub
 
 
@@ -316,6 +316,8 @@ class Controller:
             result = self.safety(out, sensing, previous=previous)
             if result.active:
                 out, filtered = result.velocity, True
+        elif cfg.limits:  # safety: paper on a unicycle: no filter, but its wheels' own limits
+            out = cap_to_limits(out, cfg.limits, sensing.heading)  # (docs/safety.md, paper)
         epoch = epoch_of(sensing.tick, p.rounds)
         bids = [
             neighbours[j].bid
