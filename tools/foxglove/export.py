@@ -38,6 +38,7 @@ from shoal.bus.errors import DecodeError
 from shoal.bus.messages import Event, PlantRecord, TickRecord
 from shoal.bus.runtime import warn
 from shoal.tools.foxglove.views import (
+    PHYSICS_TOPICS,
     SCHEMAS_VERSION,
     TOPICS,
     RunLog,
@@ -243,7 +244,7 @@ def _write(
     for view in views(run, options, progress):
         channel = channels.get(view.topic)
         if channel is None:
-            name = TOPICS[view.topic]
+            name = {**TOPICS, **PHYSICS_TOPICS}[view.topic]
             if name not in schemas:
                 schemas[name] = writer.register_schema(name, "jsonschema", schema_text(name))
             channel = channels[view.topic] = writer.register_channel(

@@ -54,8 +54,8 @@ TOPICS: dict[str, str] = {  # topic → schema name, in the order the channels a
     LOG: "foxglove.Log",
     **PLOT_TOPICS,
     TRACKING: "shoal.Tracking",
-    PLANT: "shoal.Plant",
 }
+PHYSICS_TOPICS = {PLANT: "shoal.Plant"}  # only in the exported views of a physics run
 SCHEMAS_VERSION = "2.1.0"  # of npm @foxglove/schemas, that tools/foxglove/schemas/ holds
 BLOCK = 512  # ticks whose metrics are computed at once: bounded memory for any run length
 
