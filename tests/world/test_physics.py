@@ -194,3 +194,4 @@ def test_a_diverging_engine_is_an_error_not_robots_back_at_their_starts() -> Non
     with pytest.raises(PlantError, match="diverged"):
         seen = plant.observe()
         plant.send(np.ones((scn.n, 2)), seen.headings)
+    assert not (Path.cwd() / "MUJOCO_LOG.TXT").exists()  # MuJoCo's warning came to the plant

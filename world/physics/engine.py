@@ -40,7 +40,19 @@ _DIVERGED = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
 )
-PINNED = "4.0.1"  # pyproject.toml's pin: physics runs are bit-exact within one MuJoCo version
+PINNED = "4.0.1"
+
+_WARNED: list[str] = []  # MuJoCo's warnings in this process, newest last
+
+
+def _warned(text: str) -> None:
+    """MuJoCo's warnings come here, not into a MUJOCO_LOG.TXT in the user's folder: the plant
+    says what went wrong itself (:meth:`Engine._check_finite`)."""
+    _WARNED.append(text)
+    del _WARNED[:-8]
+
+
+mujoco.set_mju_user_warning(_warned)  # pyproject.toml's pin: physics runs are bit-exact within one MuJoCo version
 
 
 class Engine:
@@ -207,8 +219,9 @@ class Engine:
             t = self.step_count * self.timestep
             raise PlantError(
                 f"the physics diverged at {t:.3f} s of simulated time (MuJoCo: "
-                f"{', '.join(w.name for w in bad) or 'non-finite positions'}): a physics step "
-                "too long for the robots' loops or masses (dynamics.timestep, loop_time, mass)"
+                f"{', '.join(w.name for w in bad) or 'non-finite positions'}"
+                f"{'; ' + _WARNED[-1].strip() if _WARNED else ''}): a physics step too long "
+                "for the robots' loops or masses (dynamics.timestep, loop_time, mass)"
             )
 
     def stop(self) -> None:
