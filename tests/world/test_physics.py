@@ -195,3 +195,17 @@ def test_a_diverging_engine_is_an_error_not_robots_back_at_their_starts() -> Non
         seen = plant.observe()
         plant.send(np.ones((scn.n, 2)), seen.headings)
     assert not (Path.cwd() / "MUJOCO_LOG.TXT").exists()  # MuJoCo's warning came to the plant
+
+
+def test_the_engine_is_the_pinned_version() -> None:
+    """Physics runs are bit-exact only within one MuJoCo version (and CPU architecture): the
+    determinism and lockstep-equality checks here are made on the version pyproject.toml pins."""
+    import tomllib
+
+    import mujoco
+
+    from shoal.world.physics.engine import PINNED
+
+    pyproject = tomllib.loads((Path(__file__).parents[2] / "pyproject.toml").read_text())
+    assert pyproject["project"]["optional-dependencies"]["physics"] == [f"mujoco=={PINNED}"]
+    assert mujoco.__version__ == PINNED

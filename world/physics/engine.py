@@ -40,7 +40,7 @@ _DIVERGED = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
 )
-PINNED = "4.0.1"
+PINNED = "4.0.1"  # pyproject.toml's pin: physics runs are bit-exact within one MuJoCo version
 
 _WARNED: list[str] = []  # MuJoCo's warnings in this process, newest last
 
@@ -52,7 +52,7 @@ def _warned(text: str) -> None:
     del _WARNED[:-8]
 
 
-mujoco.set_mju_user_warning(_warned)  # pyproject.toml's pin: physics runs are bit-exact within one MuJoCo version
+mujoco.set_mju_user_warning(_warned)
 
 
 class Engine:
