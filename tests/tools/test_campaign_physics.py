@@ -163,6 +163,8 @@ def test_the_kinematic_campaign_says_nothing_of_an_engine() -> None:
          r"one of gritsbot, turtlebot3"),
         (["--plant", "mujoco", "--kind", "hard", "--dynamics", "turtlebot3"],
          r"turtlebot3 is a differential drive, but the fields' agents are single integrators"),
+        (["--rerun", __file__, "--latency-ms", "30"],
+         r"--latency-ms: not with --rerun: the saved field's dynamics: section sets it"),
         (["--plant", "mujoco", "--swarm", "1"], r"not with --swarm or --people"),
         (["--plant", "mujoco", "--people", "2"], r"not with --swarm or --people"),
     ],

@@ -260,6 +260,11 @@ def campaign(**params: Any) -> None:
     the engine judges collisions and margins, and each saved field carries its robots.
     """
     if params["rerun"] is not None:
+        if params["latency_ms"] is not None:
+            raise click.BadParameter(
+                "not with --rerun: the saved field's dynamics: section sets it",
+                param_hint="--latency-ms",
+            )
         _rerun(params["rerun"], params["as_json"], params["plant"], params["dynamics"])
         return
     config = _config(params)
@@ -346,7 +351,8 @@ def _check_robots(c: Campaign, params: Mapping[str, Any]) -> None:
             f"--plant {plant} runs the fields through the reference simulator: not with "
             "--swarm or --people"
         )
-    if plant == KINEMATICS and robots.dynamics is None:
+    if plant == KINEMATICS:
+        check_plant(c.base, plant, robots.dynamics)  # --dynamics without --plant mujoco
         return
     bare = dataclasses.replace(robots, plant=KINEMATICS, dynamics=None, latency=None)
     try:
@@ -356,7 +362,7 @@ def _check_robots(c: Campaign, params: Mapping[str, Any]) -> None:
             sample = make_field(c.base, c.seed, "inside", bare)
     except FieldError:
         sample = c.base  # the campaign reports the field it cannot draw; check the base's agents
-    if plant != KINEMATICS and robots.dynamics is not None:
+    if robots.dynamics is not None:
         _fits(sample, robots.dynamics)
     check_plant(sample, plant, robots.dynamics)
 
