@@ -1,6 +1,20 @@
-"""Scenarios the physics plant's tests share (tests/world/test_physics.py, tests/tools/)."""
+"""Scenarios several tests share: the physics plant's crash, and a mixed formation."""
 
 from __future__ import annotations
+
+from shoal.world.loader import load_scenario
+
+
+def mixed_robotarium(
+    duration: float, singles: tuple[str, ...] = ("[-0.4, 0.4]}", "[-0.8, -0.8]}")
+) -> str:
+    """``robotarium``'s YAML cut to ``duration`` s, with the agents at ``singles`` (their offsets
+    as the file writes them) made holonomic (``kinematics: single``): GRITSbots and bases."""
+    text = load_scenario("robotarium").source.replace("duration: 75.0", f"duration: {duration}")
+    for offset in singles:
+        text = text.replace(offset, offset[:-1] + ", kinematics: single}")
+    return text
+
 
 # The paper's law alone (no safety filter) drives the follower through an obstacle at 0.4 m/s:
 # a contact the engine must report.

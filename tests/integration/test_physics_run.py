@@ -9,11 +9,12 @@ from pathlib import Path
 
 import pytest
 from conftest import json_of, run_cli
+from physics_cases import mixed_robotarium
 
 from shoal.tools.commands.report import json_safe
 from shoal.tools.log.reader import read_ticks
 from shoal.tools.simulator import reference, run
-from shoal.world.loader import load_scenario, parse_scenario
+from shoal.world.loader import parse_scenario
 from shoal.world.metrics import summarize
 
 pytestmark = pytest.mark.integration
@@ -23,9 +24,7 @@ pytest.importorskip("mujoco", reason="the physics extra: pip install 'shoal[phys
 def test_a_physics_run_of_wheels_and_bases_equals_the_reference(tmp_path: Path) -> None:
     """GRITSbots as TurtleBot3s with two holonomic bases among them: both drives in one engine,
     stepped by the world process, the agents on the bus."""
-    text = load_scenario("robotarium").source.replace("duration: 75.0", "duration: 8.0")
-    for offset in ("[-0.4, 0.4]}", "[-0.8, -0.8]}"):
-        text = text.replace(offset, offset[:-1] + ", kinematics: single}")
+    text = mixed_robotarium(8.0)
     path = tmp_path / "mixed.yaml"
     path.write_text(text)
     out = tmp_path / "run.mcap"

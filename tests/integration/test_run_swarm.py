@@ -31,6 +31,7 @@ from conftest import (
     unique,
 )
 from mcap.reader import make_reader
+from physics_cases import mixed_robotarium
 from test_readme import RUN_HERE as README_RUNS  # checked there, from the README's own commands
 
 from shoal.bus import codec
@@ -70,9 +71,7 @@ def test_lockstep_run_equals_the_reference_simulator_bit_for_bit(name: str, tmp_
 def test_a_mixed_formation_runs_distributed_equal_to_the_reference(tmp_path: Path) -> None:
     """GRITSbots with two holonomic followers among them (``kinematics: single`` per agent):
     the distributed lockstep run equals the reference bit for bit, headings included."""
-    text = load_scenario("robotarium").source.replace("duration: 75.0", "duration: 10.0")
-    for offset in ("[-0.4, 0.4]}", "[-0.8, -0.8]}"):
-        text = text.replace(offset, offset[:-1] + ", kinematics: single}")
+    text = mixed_robotarium(10.0)
     path = tmp_path / "mixed.yaml"
     path.write_text(text)
     out = tmp_path / "run.mcap"

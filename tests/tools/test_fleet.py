@@ -22,6 +22,7 @@ from typing import Any
 import pytest
 import yaml
 from conftest import client, processes_mentioning, shoal_run, unique
+from fleets import robots_process
 
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.procs.launch import free_port
@@ -147,26 +148,9 @@ class Odometry:
 @pytest.fixture
 def fleet() -> Iterator[tuple[str, subprocess.Popen[str]]]:
     """``shoal robots default -n 2`` as its own router on a free port, until it is ready."""
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "shoal.tools", "robots", "default", "-n", "2", "--listen",
-         endpoint, "--rate", "40", "--cmd-timeout", "0.3", "--domain", "3"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        assert proc.stdout is not None
-        line = proc.stdout.readline()
-        assert line.startswith("ready robots 2 holonomic robots /robot1…/robot2 domain 3"), line + (
-            proc.stderr.read() if proc.poll() is not None and proc.stderr else ""
-        )
-        yield endpoint, proc
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(20.0)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+    args = ["default", "-n", "2", "--rate", "40", "--cmd-timeout", "0.3", "--domain", "3"]
+    with robots_process(args, "ready robots 2 holonomic robots /robot1…/robot2 domain 3") as up:
+        yield up
 
 
 @pytest.mark.integration

@@ -7,15 +7,14 @@ from __future__ import annotations
 
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 
 import pytest
 from conftest import client
+from fleets import robots_process
 from test_fleet import Odometry
 
-from shoal.tools.procs.launch import free_port
 from shoal.tools.ros2 import rmw
 from shoal.tools.ros2.node import RosSession
 from shoal.world.loader import load_scenario
@@ -27,26 +26,10 @@ pytest.importorskip("mujoco", reason="the physics extra: pip install 'shoal[phys
 @pytest.fixture
 def fleet() -> Iterator[tuple[str, subprocess.Popen[str]]]:
     """``shoal robots robotarium -n 2 --plant mujoco`` as its own router, until it is ready."""
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "shoal.tools", "robots", "robotarium", "-n", "2", "--listen",
-         endpoint, "--rate", "40", "--cmd-timeout", "0.3", "--domain", "4", "--plant", "mujoco"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        assert proc.stdout is not None
-        line = proc.stdout.readline()
-        assert line.startswith("ready robots 2 unicycles"), line + (
-            proc.stderr.read() if proc.poll() is not None and proc.stderr else ""
-        )
-        yield endpoint, proc
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(20.0)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+    args = ["robotarium", "-n", "2", "--rate", "40", "--cmd-timeout", "0.3", "--domain", "4",
+            "--plant", "mujoco"]  # fmt: skip
+    with robots_process(args, "ready robots 2 unicycles") as up:
+        yield up
 
 
 def test_a_robot_with_mass_drives_measures_its_speed_and_stops_on_its_own(

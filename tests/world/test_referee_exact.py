@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
+from physics_cases import mixed_robotarium
 
 from shoal.bus.types import SafetyLayer
 from shoal.geometry.safety import cap_to_limits
@@ -22,9 +23,7 @@ from shoal.world.step import Step
 
 
 def mixed() -> Scenario:
-    text = load_scenario("robotarium").source.replace("duration: 75.0", "duration: 30.0")
-    text = text.replace("[-0.4, 0.4]}", "[-0.4, 0.4], kinematics: single}")
-    return parse_scenario(text, default_name="mixed")
+    return parse_scenario(mixed_robotarium(30.0, ("[-0.4, 0.4]}",)), default_name="mixed")
 
 
 def run(scn: Scenario, layer: SafetyLayer) -> tuple[str, dict[str, object]]:
