@@ -143,8 +143,12 @@ DIGESTS = {
     ("passage", "paper"): "9abb03727e611003",
     # 2026-12-07: a unicycle's limits are rows of its filter at its heading (world/limits.py),
     # no longer a disc whatever the heading: the GRITSbots drive at up to 0.1997 m/s (0.1345
-    # before) and arrive at 42.24 s (44.29 s).
-    ("robotarium", "filter"): "0239bab21aef1f25",
+    # before) and arrive at 42.24 s (44.29 s). Later that day: a command on an edge of the
+    # limit polygon up to rounding is inside it (geometry/safety.py cap_to_limits, the same
+    # 1e-12 slack as cap_speed's), so the referee changes nothing in lockstep: the agents' own
+    # caps stop scaling such commands by an ulp. The positions part from tick 348 by at most
+    # 5.2e-15 m; the run arrives at 42.24 s as before, guard margin +0.01105 m.
+    ("robotarium", "filter"): "4582abc347d0ab57",
     ("sinusoid", "filter"): "0a16c65f361a36b6",
     ("sinusoid", "paper"): "0a16c65f361a36b6",
 }
