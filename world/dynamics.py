@@ -179,11 +179,12 @@ def _number(value: Any, key: str) -> float:
 
 
 def of_agents(
-    chosen: Dynamics | None, unicycles: tuple[bool, ...], dim: int
+    chosen: Dynamics | None, unicycles: tuple[bool, ...], dim: int, where: str = "dynamics.preset"
 ) -> tuple[Dynamics, ...]:
     """Each agent's robot: a unicycle is a differential drive (``chosen`` if it is one, else
     ``gritsbot``), a single integrator a holonomic base (``chosen`` if it is one, else
-    ``holonomic``); :class:`ScenarioError` when ``chosen`` fits no agent of the formation."""
+    ``holonomic``); :class:`ScenarioError` at ``where`` (the field or option that chose it)
+    when ``chosen`` fits no agent of the formation."""
     wheeled = chosen if chosen is not None and chosen.drive == Drive.DIFFERENTIAL else None
     based = chosen if chosen is not None and chosen.drive == Drive.HOLONOMIC else None
     if chosen is not None and not any(
@@ -192,14 +193,12 @@ def of_agents(
     ):
         kind = "unicycles" if all(unicycles) else "single integrators"
         raise ScenarioError(
-            "dynamics.preset",
+            where,
             f"{chosen.preset} is a {chosen.drive} drive, but every agent is one of the {kind}: "
             f"choose a {'differential' if all(unicycles) else 'holonomic'} preset",
         )
     if dim != 2 and (wheeled is not None or any(unicycles)):
-        raise ScenarioError(
-            "dynamics.preset", "a differential drive rolls on a plane: dim must be 2"
-        )
+        raise ScenarioError(where, "a differential drive rolls on a plane: dim must be 2")
     return tuple(
         (wheeled or PRESETS["gritsbot"]) if u else (based or PRESETS["holonomic"])
         for u in unicycles

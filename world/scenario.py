@@ -188,7 +188,8 @@ class Scenario:
             if self.dynamics is None and preset is None
             else ((self.dynamics or DynamicsSetup()).resolve(preset))
         )
-        return of_agents(chosen, tuple(not a.single for a in self.agents), self.dim)
+        where = "dynamics.preset" if preset is None else "--dynamics"
+        return of_agents(chosen, tuple(not a.single for a in self.agents), self.dim, where)
 
     @cached_property
     def position_biases(self) -> FloatArray | None:

@@ -126,7 +126,7 @@ def test_shoal_simulate_with_the_engine_says_which_plant_ran(tmp_path: Path) -> 
     ("args", "words"),
     [
         (["--dynamics", "holonomic"], "add --plant mujoco"),
-        (["--plant", "mujoco", "--dynamics", "gritsbot"], "choose a holonomic preset"),
+        (["--plant", "mujoco", "--dynamics", "gritsbot"], "--dynamics: gritsbot is a differential"),
         (["--plant", "bullet"], "Invalid value for '--plant'"),
     ],
 )
