@@ -102,11 +102,11 @@ def engine_figures(ran: Sequence[Outcome]) -> dict[str, Any]:
     }
 
 
-def _finite(values: Iterable[float]) -> list[float]:
-    return [x for x in values if math.isfinite(x)]
+def _finite(values: Iterable[float | None]) -> list[float]:
+    return [x for x in values if x is not None and math.isfinite(x)]
 
 
-def _median(values: Iterable[float]) -> float | None:
+def _median(values: Iterable[float | None]) -> float | None:
     finite = _finite(values)
     return float(np.median(finite)) if finite else None
 

@@ -101,15 +101,16 @@ class Outcome:
     # judged. Its collisions are not split by kind (``engine_collisions``; then the two counts
     # above are 0); contacts are every onset the engine reported (a person walking into a
     # robot among them); the deepest ≤ 0, m; tracking error: |achieved − commanded| point
-    # velocity per agent-tick, m/s, the run's median, 99th percentile and largest (nan: none).
+    # velocity per agent-tick, m/s, the run's median, 99th percentile and largest (None: none;
+    # not nan, which is unequal to itself and would make two equal outcomes differ).
     plant: str = KINEMATICS
     dynamics: str = ""
     engine_collisions: int = 0
     engine_contacts: int = 0
     engine_deepest_contact: float = 0.0
-    tracking_error_p50: float = math.nan
-    tracking_error_p99: float = math.nan
-    tracking_error_max: float = math.nan
+    tracking_error_p50: float | None = None
+    tracking_error_p99: float | None = None
+    tracking_error_max: float | None = None
 
     @property
     def collisions(self) -> int:
@@ -188,9 +189,9 @@ def engine_judged(outcome: Outcome, judged: dict[str, Any]) -> Outcome:
     )
 
 
-def _figure(value: Any) -> float:
-    """A judged figure as a float; nan where the engine had none to give."""
-    return math.nan if value is None else float(value)
+def _figure(value: Any) -> float | None:
+    """A judged figure as a float; None where the engine had none to give."""
+    return None if value is None else float(value)
 
 
 def measure(
