@@ -30,17 +30,28 @@ def _refusal(text: str) -> ScenarioError:
     return caught.value
 
 
+def _terms(error: ScenarioError, field: str, formula: str, closing: str) -> tuple[float, ...]:
+    """The reach's printed terms (agent_radius, l, l·x²/2) and value from ``error``, which must
+    name ``field`` and print ``formula`` then the three terms, ``closing`` and the value."""
+    assert error.field == field
+    said = str(error)
+    found = re.search(
+        f"{re.escape(formula)}{NUMBER} \\+ {NUMBER} \\+ {NUMBER}{re.escape(closing)} = {NUMBER} m",
+        said,
+    )
+    assert found, said
+    return tuple(map(float, found.groups()))
+
+
 def test_a_unicycles_separation_is_twice_its_printed_reach_and_says_so() -> None:
     s = load_scenario("robotarium")
     assert s.unicycle is not None
     error = _refusal(_robotarium(safety_margin=0.15, separation=0.25, sensing_radius=0.8,
                                  trigger_radius=0.6))  # fmt: skip
-    assert error.field == "control.separation"
     said = str(error)
-    formula = re.escape("2·(agent_radius + l + l·x²/2) = 2·(")
-    found = re.search(f"{formula}{NUMBER} \\+ {NUMBER} \\+ {NUMBER}\\) = {NUMBER} m", said)
-    assert found, said
-    radius, ell, departure, value = map(float, found.groups())
+    radius, ell, departure, value = _terms(
+        error, "control.separation", "2·(agent_radius + l + l·x²/2) = 2·(", ")"
+    )
     assert value == pytest.approx(2 * (radius + ell + departure), rel=1e-5)
     # the terms are the scenario's, the departure l·x²/2 at v_max (sin x = v_max·dt/2l)
     assert radius == s.agent_radius and ell == s.unicycle.lookahead
@@ -53,12 +64,9 @@ def test_a_unicycles_separation_is_twice_its_printed_reach_and_says_so() -> None
 
 def test_a_unicycles_guard_is_its_printed_reach_once() -> None:
     error = _refusal(_robotarium(safety_margin=0.12, sensing_radius=0.8, trigger_radius=0.6))
-    assert error.field == "control.safety_margin"
-    said = str(error)
-    formula = re.escape("is less than agent_radius + l + l·x²/2 = ")
-    found = re.search(f"{formula}{NUMBER} \\+ {NUMBER} \\+ {NUMBER} = {NUMBER} m", said)
-    assert found, said
-    radius, ell, departure, value = map(float, found.groups())
+    radius, ell, departure, value = _terms(
+        error, "control.safety_margin", "is less than agent_radius + l + l·x²/2 = ", ""
+    )
     assert value == pytest.approx(radius + ell + departure, rel=1e-5)
     assert value == pytest.approx(load_scenario("robotarium").body_reach, rel=1e-6)
 
