@@ -54,6 +54,9 @@ class SafetyLayer(StrEnum):
     REFEREE = "referee"  # filters it again with every agent's true position at that tick
     ONBOARD = "onboard"  # each robot's own layer, knowing what it knows (world/onboard.py)
     NONE = "none"  # applied as sent; the world counts what a referee would have changed
+    # The referee for robots with mass: each step from what the robot can reach, given its pose's
+    # age, the commands it was sent and its body's bounds (world/reach_layer.py)
+    REACH = "reach"
 
     @classmethod
     def of(cls, layer: SafetyLayer | None, clock: Clock) -> SafetyLayer:

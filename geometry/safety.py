@@ -146,6 +146,7 @@ def rows_for(
     half_separation: float,
     reach: float = math.inf,
     dt: float = 0.0,
+    shifts: Sequence[float] = (),
 ) -> list[Row]:
     """The rows of an agent from its sensing: its obstacles, then its sensed agents.
 
@@ -153,6 +154,9 @@ def rows_for(
     guard circle and agents whose cell edge are within ``reach`` of the agent; with reach =
     ‖v̂‖·dt the others cannot be active (see :func:`project`), so skipping them is exact.
     Moving obstacles' rows (``dt`` s steps) come last; one whose bound is > 0 is always built.
+    ``shifts`` (m, one per sensed agent, if given) are added to the agents' rows' bounds: how
+    much deeper than R on its side of the bisector this agent's step must end (the reach layer's
+    margins for robots with mass, world/reach_layer.py).
     """
     pos = sensing.position
     dist = math.dist
@@ -162,9 +166,11 @@ def rows_for(
         if dist(pos, c) < r + margin + reach
     ]
     near = 2.0 * (half_separation + reach)
-    for j, q in zip(sensing.agent_ids, sensing.agent_positions):
-        if dist(pos, q) < near:
-            rows.append(agent_row(pos, q, half_separation, lower=agent_id < j))
+    for index, (j, q) in enumerate(zip(sensing.agent_ids, sensing.agent_positions)):
+        shift = shifts[index] if shifts else 0.0
+        if dist(pos, q) < near + 2.0 * shift:
+            row = agent_row(pos, q, half_separation, lower=agent_id < j)
+            rows.append(Row(row.normal, row.bound + shift) if shifts else row)
     for m in sensing.movers:
         if dist(pos, m.centre) < m.radius + margin + m.speed_cap * dt + reach:
             rows.append(mover_row(pos, m, margin, dt))
@@ -512,6 +518,7 @@ class SafetyFilter:
         *,
         previous: Vector | None = None,
         extra: Sequence[Row] = (),
+        shifts: Sequence[float] = (),
     ) -> Filtered:
         """The whole filter for one tick: cap the nominal at the speed limit, project it onto
         the rows of ``sensing`` (and ``extra``), and where that leaves the agent pressed
@@ -522,7 +529,7 @@ class SafetyFilter:
         (:func:`sidestep`'s ``held``). ``active`` is True when the result differs from the
         nominal as given (the cap alone counts). The result always meets every row and is never
         faster than the capped nominal; a feasible nominal comes back unchanged."""
-        return self._filter(nominal, sensing, previous, extra, sensing.heading)
+        return self._filter(nominal, sensing, previous, extra, sensing.heading, shifts)
 
     def _filter(
         self,
@@ -531,6 +538,7 @@ class SafetyFilter:
         previous: Vector | None,
         extra: Sequence[Row],
         heading: float,
+        shifts: Sequence[float] = (),
     ) -> Filtered:
         dt, margin, half_separation = self.dt, self.margin, self.half_separation
         speed_limit, limits, agent_id = self.speed_limit, self.limits, self.agent_id
@@ -547,6 +555,7 @@ class SafetyFilter:
             half_separation=half_separation,
             reach=speed * dt,
             dt=dt,
+            shifts=shifts,
         )
         rows += extra
         if limits:
@@ -554,7 +563,7 @@ class SafetyFilter:
         if any(r.bound > 0.0 for r in rows):  # a moving obstacle within reach of the guard
             every = rows_for(
                 sensing, agent_id, margin=margin, half_separation=half_separation,
-                reach=speed_limit * dt, dt=dt,
+                reach=speed_limit * dt, dt=dt, shifts=shifts,
             )  # fmt: skip
             every += extra
             if limits:

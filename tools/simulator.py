@@ -17,6 +17,7 @@ from shoal.bus.messages import AgentState, TickRecord
 from shoal.bus.types import SafetyLayer
 from shoal.world.layers import make_layer
 from shoal.world.plant import KINEMATICS, simulated
+from shoal.world.reach_layer import reach_inputs
 from shoal.world.scenario import Scenario
 from shoal.world.step import Report, Step
 from shoal.world.trajectory import Trajectory
@@ -25,13 +26,20 @@ Progress = Callable[[int], None]
 
 
 def reference_step(
-    scenario: Scenario, plant: str = KINEMATICS, dynamics: str | None = None
+    scenario: Scenario,
+    plant: str = KINEMATICS,
+    dynamics: str | None = None,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
 ) -> Step:
     """The tick of ``scenario`` as the reference runs it: the referee (which in lockstep
-    changes nothing) and the simulated plant called ``plant`` (world/plant.py ``simulated``)."""
+    changes nothing), or the ``layer`` asked for, and the simulated plant called ``plant``
+    (world/plant.py ``simulated``)."""
     s = scenario
-    layer = make_layer(SafetyLayer.REFEREE, s.params(), s.n, s.dt, s.limits)
-    return Step(s, layer, simulated(s, plant, dynamics))
+    bounds, largest = reach_inputs(s, dynamics)
+    chosen = make_layer(
+        layer, s.params(), s.n, s.dt, s.limits, bounds=bounds, largest_obstacle=largest
+    )
+    return Step(s, chosen, simulated(s, plant, dynamics))
 
 
 def _commands(scenario: Scenario, step: Step) -> Iterator[tuple[int, dict[int, Report]]]:
@@ -53,11 +61,14 @@ def _commands(scenario: Scenario, step: Step) -> Iterator[tuple[int, dict[int, R
 
 
 def run(
-    scenario: Scenario, plant: str = KINEMATICS, dynamics: str | None = None
+    scenario: Scenario,
+    plant: str = KINEMATICS,
+    dynamics: str | None = None,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
 ) -> Iterator[TickRecord]:
     """Yield every tick's record of ``scenario`` in order, as the world publishes it; stop
     iterating to stop the run early."""
-    step = reference_step(scenario, plant, dynamics)
+    step = reference_step(scenario, plant, dynamics, layer)
     everyone = range(1, scenario.n + 1)
     for k, reports in _commands(scenario, step):
         yield step.act_recorded(k, reports, everyone)
@@ -69,9 +80,10 @@ def simulate(
     progress: Progress | None = None,
     plant: str = KINEMATICS,
     dynamics: str | None = None,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
 ) -> Trajectory:
     """Run ``scenario`` for all its ticks; ``progress(k)`` is called after each tick."""
-    return reference(scenario, progress=progress, plant=plant, dynamics=dynamics)[0]
+    return reference(scenario, progress=progress, plant=plant, dynamics=dynamics, layer=layer)[0]
 
 
 def reference(
@@ -80,11 +92,14 @@ def reference(
     progress: Progress | None = None,
     plant: str = KINEMATICS,
     dynamics: str | None = None,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
 ) -> tuple[Trajectory, dict[str, Any]]:
-    """:func:`simulate`, and its plant's summary entries (a physics run's judgement)."""
-    step = reference_step(scenario, plant, dynamics)
+    """:func:`simulate`, and its plant's summary entries (a physics run's judgement; the reach
+    layer's counts when it is the ``layer``)."""
+    step = reference_step(scenario, plant, dynamics, layer)
     for k, reports in _commands(scenario, step):
         step.act(k, reports)
         if progress is not None:
             progress(k)
-    return step.finish(), step.plant.report()
+    extra = step.layer.report() if layer == SafetyLayer.REACH else {}
+    return step.finish(), step.plant.report() | extra

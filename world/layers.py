@@ -24,12 +24,22 @@ from shoal.geometry.safety import SafetyFilter
 from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import actuate
 from shoal.world.onboard import Link, OnboardLayers
+from shoal.world.plant import Observed
+from shoal.world.reach import Bounds
+from shoal.world.reach_layer import Reach
 
 
 class Layer(Protocol):
-    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> FloatArray:
+    def act(
+        self,
+        k: int,
+        sensings: Sequence[Sensing],
+        commanded: FloatArray,
+        seen: Observed | None = None,
+    ) -> FloatArray:
         """The velocities (n, dim) m/s the robots hold over tick ``k`` for ``commanded``
-        (n, dim; a zero row: an agent held still), given the tick's ``sensings``."""
+        (n, dim; a zero row: an agent held still), given the tick's ``sensings`` and what the
+        plant ``seen`` of the robots (their poses' ages)."""
 
     def report(self) -> dict[str, Any]:
         """Summary entries: which layer, what it changed (docs/wire.md)."""
@@ -51,7 +61,13 @@ class Referee:
         self.filters = filters
         self.corrected = 0  # agent-ticks whose command it changed
 
-    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> FloatArray:
+    def act(
+        self,
+        k: int,
+        sensings: Sequence[Sensing],
+        commanded: FloatArray,
+        seen: Observed | None = None,
+    ) -> FloatArray:
         velocities, fixed = actuate(sensings, commanded, self.filters)
         self.corrected += fixed
         return velocities
@@ -94,7 +110,13 @@ class _Watched:
 class Unguarded(_Watched):
     """Commands applied as sent."""
 
-    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> FloatArray:
+    def act(
+        self,
+        k: int,
+        sensings: Sequence[Sensing],
+        commanded: FloatArray,
+        seen: Observed | None = None,
+    ) -> FloatArray:
         self.watch(sensings, commanded)
         return commanded
 
@@ -111,7 +133,13 @@ class Onboard(_Watched):
         self.changed = 0  # agent-ticks whose command a robot's layer changed
         self.standing = 0  # robot-ticks held still waiting for a neighbour's snapshot
 
-    def act(self, k: int, sensings: Sequence[Sensing], commanded: FloatArray) -> FloatArray:
+    def act(
+        self,
+        k: int,
+        sensings: Sequence[Sensing],
+        commanded: FloatArray,
+        seen: Observed | None = None,
+    ) -> FloatArray:
         held = self.layers.act(k, sensings, commanded)
         self.changed += held.changed
         self.standing += held.standing
@@ -131,9 +159,19 @@ def make_layer(
     *,
     epoch: int = 2,
     link: Link | None = None,
+    bounds: Sequence[Bounds] = (),
+    largest_obstacle: float = 0.0,
 ) -> Layer:
     """The layer ``kind`` for a run of ``n`` agents; ``epoch`` (ticks between the robots'
-    snapshots) and ``link`` (their radio) for the onboard layer."""
+    snapshots) and ``link`` (their radio) for the onboard layer; the robots' ``bounds`` (none
+    given: robots that move as commanded) and the ``largest_obstacle``'s radius (m) for the
+    reach layer."""
+    if kind == SafetyLayer.REACH:
+        if any(limits):
+            raise ValueError("the reach layer is for single integrators; unicycles are not yet")
+        if not params.filtered:
+            raise ValueError("the reach layer certifies steps, and safety: paper asks for none")
+        return Reach(params, dt, tuple(bounds) or (Bounds(),) * n, largest_obstacle)
     filters = referee_filters(params, n, dt, limits)
     if kind == SafetyLayer.REFEREE:
         return Referee(filters)

@@ -38,12 +38,14 @@ class Observed:
     """Where the agents are at a tick's start: ``positions`` (n, dim) of their points, m;
     ``headings`` (n,) rad for unicycles (None when every agent is holonomic); ``stale``: the
     agents (1-based) whose robot's last pose is older than the plant's limit; ``ages`` (n,) s:
-    how old each robot's pose is now (None when the plant cannot tell)."""
+    how old each robot's pose is now (None when the plant cannot tell); ``velocities`` (n, dim)
+    m/s: each point's velocity measured with its pose (None when the plant does not say)."""
 
     positions: FloatArray
     headings: FloatArray | None
     stale: frozenset[int]
     ages: FloatArray | None = None
+    velocities: FloatArray | None = None
 
 
 class Plant(Protocol):

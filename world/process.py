@@ -33,6 +33,7 @@ from shoal.world.layers import make_layer
 from shoal.world.metrics import summarize
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
 from shoal.world.plant import KINEMATICS, Kinematics, Observed, Plant, PlantError
+from shoal.world.reach_layer import reach_inputs
 from shoal.world.scenario import Scenario
 from shoal.world.start import misplaced
 from shoal.world.step import Report, Step
@@ -217,7 +218,11 @@ class World(Declarations):
                 "stand at every snapshot until it arrives; set control.speed_limit to your "
                 "robots' own (docs/safety.md, Without a referee)",
             )  # fmt: skip
-        layer = make_layer(self.layer, params, s.n, s.dt, s.limits, epoch=epoch, link=options.link)
+        bounds, largest = reach_inputs(s, options.dynamics)
+        layer = make_layer(
+            self.layer, params, s.n, s.dt, s.limits, epoch=epoch, link=options.link,
+            bounds=bounds, largest_obstacle=largest,
+        )  # fmt: skip
         plant = options.plant or Kinematics(
             s.initial_positions, s.initial_headings, s.lookaheads, s.dt
         )

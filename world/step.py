@@ -87,7 +87,7 @@ class Step:
             if i not in seen.stale:  # a robot not seen stands, and says nothing this tick
                 rows[i - 1] = command.velocity
         commanded: FloatArray = np.array(rows, dtype=np.float64)
-        velocities = self.layer.act(k, self.sensings, commanded)
+        velocities = self.layer.act(k, self.sensings, commanded, seen)
         for i in seen.stale:  # whatever a layer made of it: a robot not seen stands
             velocities[i - 1] = 0.0
         self.pose_holds += len(seen.stale)

@@ -159,11 +159,14 @@ class Engine:
 
     def observe(self) -> Observed:
         points, theta = self._points()
+        velocities = None
+        if not len(self.wheeled):  # a base's point moves with its slides: their rates, exactly
+            velocities = self.data.qvel[self.base_dof].copy()
         if not self.unicycles:
-            return Observed(points, None, frozenset())
+            return Observed(points, None, frozenset(), velocities=velocities)
         headings = self.start_headings.copy()
         headings[self.wheeled] = theta
-        return Observed(points, headings, frozenset())
+        return Observed(points, headings, frozenset(), velocities=velocities)
 
     def _points(self) -> tuple[FloatArray, FloatArray]:
         """Every agent's point (n, dim) now, and the wheeled robots' headings (in

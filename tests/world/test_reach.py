@@ -1,0 +1,241 @@
+"""The reach layer (world/reach.py, world/reach_layer.py; docs/safety.md, Robots with mass).
+
+Against reference models of robots with mass that are not the physics plant (a velocity loop
+with latency, an acceleration limit and a lag, simulated in substeps; tests/helpers/
+braking_models.py), robots told to drive at full speed into a guard or at their nearest
+neighbour, from poses of random age, never enter a guard or come within 2R along the whole
+motion. The same layer told the wrong bounds — the pose's age ignored, braking ignored, the
+latency ignored — lets them in on the same runs."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import random
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from shoal.bus.types import ControlParams, SafetyLayer
+from shoal.tools.simulator import run
+from shoal.world.loader import load_scenario
+from shoal.world.plant import Observed
+from shoal.world.reach import Bounds, Track
+from shoal.world.reach_layer import Reach
+from tests.helpers.braking_models import SUBSTEPS, Fleet, least_margins, sensings
+
+DT = 0.02
+R = 0.2  # half the separation, m
+RHO = 0.2  # guard margin, m
+SPEED = 2.0  # m/s: the robots' speed limit
+SLACK = 1e-9  # m
+CENTRES = np.array([[0.0, 0.0], [3.0, 1.0]])
+RADII = np.array([0.6, 0.4])
+
+
+def _params() -> ControlParams:
+    base = load_scenario("default").params()
+    return dataclasses.replace(
+        base, speed_limit=SPEED, separation=2 * R, safety_margin=RHO, sensing_radius=50.0
+    )
+
+
+# ---- the envelope's closed forms -------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("braking", "lag", "e"),
+    [(2.0, 0.0, 3.0), (math.inf, 0.05, 1.5), (4.0, 0.04, 3.0), (4.0, 0.04, 0.1), (1.0, 0.1, 0.05)],
+)
+def test_area_and_decay_are_the_envelope_integrated(braking: float, lag: float, e: float) -> None:
+    """decay and area against the envelope's ODE d|e|/dt = −min(a, |e|/τ) integrated finely."""
+    b = Bounds(braking=braking, lag=lag)
+    h = 1e-5
+    x, gathered, t = e, 0.0, 0.0
+    checks = {0.01: None, 0.3: None, 2.0: None}
+    while t < 2.0 + h / 2:
+        for when in checks:
+            if checks[when] is None and t >= when - h / 2:
+                checks[when] = (x, gathered)
+        if lag == 0.0:
+            nxt = max(0.0, x - braking * h)
+        elif x / lag <= braking:
+            nxt = x * math.exp(-h / lag)
+        else:
+            nxt = max(x - braking * h, braking * lag)
+        gathered += (x + nxt) / 2 * h
+        x, t = nxt, t + h
+    for when, (want_e, want_area) in checks.items():
+        assert b.decay(e, when) == pytest.approx(want_e, abs=1e-4)
+        assert b.area(e, when) == pytest.approx(want_area, abs=1e-4)
+    tail = b.area(e, math.inf)
+    assert tail == pytest.approx(gathered + b.area(x, math.inf), abs=1e-4)
+
+
+def test_an_ideal_robot_needs_no_margin() -> None:
+    track = Track(Bounds(), DT, 2)
+    track.record(0, (1.0, 0.0))
+    start = track.start(1, (0.5, 0.5), 0.0)
+    assert start is not None
+    assert start.position == (0.5, 0.5) and start.tube == 0.0
+    assert track.margin(start, 5.0) == 0.0
+
+
+def test_a_late_pose_is_carried_forward_by_the_commands_sent() -> None:
+    """A pose 3 ticks old, with latency 1 tick: the start is the pose plus what the commands in
+    force over those 4 ticks add; the tube is what the envelope gathers meanwhile."""
+    b = Bounds(latency=DT, braking=2.0, lag=0.0)
+    track = Track(b, DT, 2)
+    for k in range(40):
+        track.record(k, (1.0, 0.0))
+    start = track.start(40, (0.0, 0.0), 3 * DT)
+    assert start is not None
+    assert start.position[0] == pytest.approx(4 * DT)  # commands in force over [7, 11)·dt
+    # the first command's jump of 1 m/s died out after 0.5 s: nothing gathered any more
+    assert start.tube == 0.0 and start.envelope == 0.0
+    assert track.margin(start, 1.0, jump=0.0) == pytest.approx(1.0 / (2 * 2.0))  # v²/2a
+
+
+def test_a_pose_older_than_the_horizon_brakes_the_robot() -> None:
+    layer = Reach(_params(), DT, [Bounds(braking=2.0)], 0.6)
+    poses = np.array([[5.0, 5.0]])
+    seen = Observed(poses, None, frozenset(), ages=np.array([Bounds().horizon + DT]))
+    out = layer.act(0, sensings(0, poses, CENTRES, RADII), np.array([[1.0, 0.0]]), seen)
+    assert out.tolist() == [[0.0, 0.0]]
+    assert layer.report()["reach_brakes"] == 1
+
+
+def test_with_ideal_bounds_it_is_the_referee_bit_for_bit() -> None:
+    """Robots that move as commanded: every margin is 0 and each step is the referee's."""
+    s = load_scenario("obstacles")
+    s = dataclasses.replace(s, duration=6.0)
+    referee = [r.positions for r in run(s)]
+    reach = [r.positions for r in run(s, layer=SafetyLayer.REACH)]
+    assert len(referee) == len(reach) > 100
+    assert referee == reach
+
+
+# ---- robots with mass, against reference models ----------------------------------------------
+
+
+def _start(rng: random.Random, n: int) -> np.ndarray:
+    """n robots in a 6 m box, 2R + 0.3 m apart and 0.3 m beyond every guard."""
+    while True:
+        pts = np.array([[rng.uniform(-2.5, 4.5), rng.uniform(-2.5, 3.0)] for _ in range(n)])
+        gaps = [np.linalg.norm(pts[a] - pts[b]) for a in range(n) for b in range(a)]
+        guard = np.linalg.norm(pts[:, None] - CENTRES[None], axis=2) - RADII - RHO
+        if (not gaps or min(gaps) >= 2 * R + 0.3) and guard.min() >= 0.3:
+            return pts
+
+
+def _nominal(poses: np.ndarray, k: int) -> np.ndarray:
+    """Odd robots drive at full speed at the nearest obstacle's centre, even ones at their
+    nearest neighbour (every 40 ticks they swap)."""
+    n = len(poses)
+    out = np.zeros_like(poses)
+    for i in range(n):
+        at = poses[i]
+        if (i + k // 40) % 2 == 0 and n > 1:
+            others = [j for j in range(n) if j != i]
+            target = poses[min(others, key=lambda j: np.linalg.norm(poses[j] - at))]
+        else:
+            target = CENTRES[np.argmin(np.linalg.norm(CENTRES - at, axis=1) - RADII)]
+        way = target - at
+        size = np.linalg.norm(way)
+        out[i] = 0.0 if size == 0 else way / size * SPEED
+    return out
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    seed: int
+    n: int
+    latency_substeps: int
+    accel: float
+    lag: float
+    age_substeps: int
+    measured: bool
+
+
+def _fly(case: Case, told: Bounds | None = None, *, ignore_age: bool = False) -> tuple:
+    """Run ``case`` for 150 ticks; the layer is told ``told`` (default: the truth) and, with
+    ``ignore_age``, that every pose is fresh. Returns (guard margin, pair margin, layer)."""
+    rng = random.Random(case.seed)
+    h = DT / SUBSTEPS
+    latency = case.latency_substeps * h
+    truth = Bounds(latency=latency, braking=case.accel, lag=case.lag)
+    age = case.age_substeps * h
+    fleet = Fleet(_start(rng, case.n), DT, latency, case.accel, case.lag, age, rng)
+    layer = Reach(_params(), DT, [told or truth] * case.n, float(RADII.max()))
+    for k in range(150):
+        seen, poses = fleet.observe(k, case.measured)
+        if ignore_age:
+            seen = dataclasses.replace(seen, ages=np.zeros(case.n))
+        commands = layer.act(k, sensings(k, poses, CENTRES, RADII), _nominal(poses, k), seen)
+        fleet.advance(k, commands)
+    guard, pair = least_margins(fleet.history, CENTRES, RADII, RHO, 2 * R)
+    return guard, pair, layer
+
+
+cases = st.builds(
+    Case,
+    seed=st.integers(0, 10**6),
+    n=st.integers(1, 4),
+    latency_substeps=st.integers(0, 3 * SUBSTEPS),  # up to 3 ticks, 60 ms
+    accel=st.floats(1.0, 8.0),
+    lag=st.sampled_from([0.0, 0.01, 0.04]),
+    age_substeps=st.integers(0, 2 * SUBSTEPS),  # up to 2 ticks, 40 ms
+    measured=st.booleans(),
+)
+
+
+@settings(max_examples=25, deadline=None)
+@given(cases)
+def test_robots_with_mass_keep_every_guard_and_2r(case: Case) -> None:
+    guard, pair, layer = _fly(case)
+    assert guard >= -SLACK, f"entered a guard by {-guard:.4f} m"
+    assert pair >= -SLACK, f"a pair came {-pair:.4f} m within 2R"
+    assert layer.report()["reach_brakes"] == 0  # every bound held: nobody had to brake
+
+
+# The mutants: the same layer, told less than the truth. Fixed cases where each term matters.
+HARD = [Case(seed, 3, SUBSTEPS, 2.0, 0.04, SUBSTEPS, False) for seed in range(6)]
+
+
+def _breached(runs: list[tuple]) -> bool:
+    return any(g < -1e-3 or p < -1e-3 for g, p, _ in runs)
+
+
+def test_the_hard_cases_hold_with_the_truth() -> None:
+    runs = [_fly(c) for c in HARD]
+    assert not _breached(runs), [(round(g, 4), round(p, 4)) for g, p, _ in runs]
+
+
+def test_braking_ignored_breaches() -> None:
+    told = Bounds(latency=DT, braking=math.inf, lag=0.04)  # all but the acceleration limit
+    assert _breached([_fly(c, told) for c in HARD])
+
+
+def test_latency_ignored_breaches() -> None:
+    fast = [dataclasses.replace(c, latency_substeps=3 * SUBSTEPS, accel=8.0, lag=0.0) for c in HARD]
+    told = Bounds(latency=0.0, braking=8.0, lag=0.0)
+    assert not _breached([_fly(c) for c in fast])
+    assert _breached([_fly(c, told) for c in fast])
+
+
+def test_pose_age_ignored_breaches() -> None:
+    old = [
+        dataclasses.replace(c, age_substeps=3 * SUBSTEPS, accel=8.0, lag=0.0, latency_substeps=0)
+        for c in HARD
+    ]
+    assert not _breached([_fly(c) for c in old])
+    assert _breached([_fly(c, ignore_age=True) for c in old])
+
+
+def test_lag_ignored_breaches() -> None:
+    slow = [dataclasses.replace(c, lag=0.1, accel=8.0, latency_substeps=0) for c in HARD]
+    told = Bounds(braking=8.0, lag=0.0)
+    assert not _breached([_fly(c) for c in slow])
+    assert _breached([_fly(c, told) for c in slow])
