@@ -11,10 +11,13 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 
 from shoal.bus.runtime import warn
+from shoal.bus.types import SafetyLayer
 from shoal.tools.extras import require
 from shoal.world.errors import ScenarioError, ScenarioWarning
+from shoal.world.layers import make_layer
 from shoal.world.loader import load_scenario
 from shoal.world.plant import KINEMATICS
+from shoal.world.reach_layer import reach_inputs
 from shoal.world.scenario import Scenario
 
 if TYPE_CHECKING:  # not at run time: it needs the Foxglove SDK, which is optional
@@ -59,6 +62,49 @@ def check_plant(
         scenario.robot_dynamics(dynamics)
     except ScenarioError as exc:
         raise click.ClickException(f"scenario {scenario.name}: {exc}") from None
+
+
+# The layers the reference simulator runs (``shoal simulate``, ``shoal campaign``): in lockstep
+# the referee changes nothing; the reach layer certifies each step from what a robot can reach.
+REFERENCE_LAYERS = (SafetyLayer.REFEREE, SafetyLayer.REACH)
+
+
+class LayerRefused(click.UsageError):
+    """A ``--safety-layer`` that cannot run a scenario; the layer's own reason in the message
+    (world/layers.py ``make_layer``: unicycles, ``safety: paper``)."""
+
+    def __init__(self, layer: SafetyLayer, scenario: str, reason: str) -> None:
+        super().__init__(f"--safety-layer {layer} cannot run {scenario}: {reason}")
+        self.layer, self.scenario, self.reason = layer, scenario, reason
+
+
+def layer_option(what: str) -> Callable[[F], F]:
+    """--safety-layer referee|reach: the layer ``what`` (e.g. "the run") goes through, as a
+    :class:`SafetyLayer` (its parameter is ``layer``)."""
+    return click.option(
+        "--safety-layer", "layer", type=click.Choice([str(x) for x in REFERENCE_LAYERS]),
+        default=str(SafetyLayer.REFEREE), show_default=True,
+        callback=lambda _ctx, _param, value: SafetyLayer(value),
+        help=f"What stands between a command and the robot's motion in {what}. referee: every "
+        "command filtered again with every robot's true position (in lockstep it changes "
+        "nothing); reach: the referee for robots with mass, each step certified from what the "
+        "robot can reach given its dynamics: section (latency, braking, loop lag; "
+        "docs/safety.md). Not for unicycles nor safety: paper.",
+    )  # fmt: skip
+
+
+def check_layer(scenario: Scenario, layer: SafetyLayer, dynamics: str | None) -> None:
+    """Refuse a ``--safety-layer`` that cannot run ``scenario`` (robots ``dynamics``, as
+    ``--dynamics`` names them), before anything starts: :class:`LayerRefused` with the layer's
+    own reason. Call it after :func:`check_plant`, which vets ``dynamics``."""
+    if layer == SafetyLayer.REFEREE:
+        return
+    s = scenario
+    bounds, largest = reach_inputs(s, dynamics)
+    try:  # the very factory the run calls: its refusal, said before the run
+        make_layer(layer, s.params(), s.n, s.dt, s.limits, bounds=bounds, largest_obstacle=largest)
+    except ValueError as exc:
+        raise LayerRefused(layer, s.name, str(exc)) from None
 
 
 def out_file(help: str, *, required: bool = False) -> Callable[[F], F]:

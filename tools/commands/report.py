@@ -114,6 +114,13 @@ def _layer(summary: dict[str, Any]) -> str | None:
     """What stood between the commands and the robots' motion, and what a referee would have
     changed where there was none."""
     layer = summary.get("safety_layer")
+    if layer == "reach":
+        return (
+            f"reach: each step certified from what the robot can reach; "
+            f"{_fmt(summary.get('reach_brakes'))} robot-ticks told to stop (bounds broken), "
+            f"{_fmt(summary.get('reach_slowed'))} agent-ticks slowed by the braking cap, "
+            f"largest margin {_fmt(summary.get('reach_largest_margin'), ' m', 3)}"
+        )
     if layer in ("onboard", "none"):
         would = summary.get("referee_would_correct")
         how = (

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import click
 
-from shoal.tools.commands.options import check_plant, load_for_cli
+from shoal.bus.types import SafetyLayer
+from shoal.tools.commands.options import check_layer, check_plant, layer_option, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.procs.children import PLANT_OPTIONS, WorldSpec, click_options
 from shoal.tools.simulator import reference
@@ -26,16 +27,25 @@ from shoal.world.plant import PlantError
 )
 @click.option("--force", is_flag=True, help="Overwrite the --out file if it exists.")
 @click_options(WorldSpec, only=PLANT_OPTIONS)
+@layer_option("the run")
 def simulate(
-    scenario: str, as_json: bool, out: Path | None, force: bool, plant: str, dynamics: str | None
+    scenario: str,
+    as_json: bool,
+    out: Path | None,
+    force: bool,
+    plant: str,
+    dynamics: str | None,
+    layer: SafetyLayer,
 ) -> None:
     """Run SCENARIO (a built-in name or a YAML file) in one process, exactly.
 
     Every agent's controller and the world's kinematics are called in lockstep, the same
-    functions the distributed run calls. Built-ins: see `shoal scenarios`.
+    functions the distributed run calls. Built-ins: see `shoal scenarios`. With
+    --safety-layer reach the summary adds the reach layer's counts (docs/wire.md).
     """
     scn = load_for_cli(scenario)
     check_plant(scn, plant, dynamics)
+    check_layer(scn, layer, dynamics)
     if out is not None:
         out = out if out.suffix == ".npz" else out.with_name(out.name + ".npz")
         if out.exists() and not force:
@@ -48,8 +58,9 @@ def simulate(
     ) as bar:
         try:
             traj, judged = reference(
-                scn, progress=lambda _k: bar.update(1), plant=plant, dynamics=dynamics
-            )
+                scn, progress=lambda _k: bar.update(1), plant=plant, dynamics=dynamics,
+                layer=layer,
+            )  # fmt: skip
         except PlantError as exc:
             raise click.ClickException(f"{scn.name}: {exc}") from None
     summary = json_safe({**summarize(scn, traj).as_dict(), **judged})
