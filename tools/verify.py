@@ -1,14 +1,16 @@
 """Checking a lockstep run from its log alone: re-simulate the attached scenario with the
-reference simulator and compare every recorded tick, bit for bit."""
+reference simulator and compare every recorded tick, bit for bit. The reference runs the plant
+the scenario document records and, for a run with ``--safety-layer reach``, that layer."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from shoal.bus.messages import TickRecord
-from shoal.bus.types import Clock
+from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.extras import require
 from shoal.tools.log.reader import read_documents, read_ticks, recorded_scenario
 from shoal.tools.log.salvage import LogError, check_log
@@ -27,6 +29,7 @@ class Verdict:
     matching: int
     first_mismatch: int | None  # tick
     scenario: str
+    layer: SafetyLayer = SafetyLayer.REFEREE  # the one the reference re-ran the run with
 
     @property
     def ok(self) -> bool:
@@ -58,10 +61,22 @@ def verify(path: Path, *, progress: Callable[[int, int], None] | None = None) ->
     if plant != KINEMATICS:
         require("physics", f"verifying a run with --plant {plant}")
     try:
-        ticks = run(scenario, str(plant), None if dynamics is None else str(dynamics))
-        return _compare(ticks, recorded, scenario.name, progress)
+        layer = recorded_layer(docs)
+        ticks = run(scenario, str(plant), None if dynamics is None else str(dynamics), layer)
+        return replace(_compare(ticks, recorded, scenario.name, progress), layer=layer)
     except (PlantError, ScenarioError) as exc:
         raise VerifyError(f"{path}: the recorded plant cannot run: {exc}") from None
+
+
+def recorded_layer(docs: Mapping[str, Mapping[str, Any]]) -> SafetyLayer:
+    """The layer the reference re-runs a lockstep run with, from its log's documents: the
+    reach layer where the scenario document or the summary names it (``safety_layer``), else
+    the referee, which in lockstep changes nothing. The world records it in the summary only:
+    a reach run's log cut short before its summary is re-run with the referee, and differs."""
+    named = docs.get("scenario", {}).get("safety_layer") or docs.get("summary", {}).get(
+        "safety_layer"
+    )
+    return SafetyLayer.REACH if named == SafetyLayer.REACH else SafetyLayer.REFEREE
 
 
 def _compare(

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from shoal.bus.types import SafetyLayer
 from shoal.tools.commands.logs import log_files, run_logs
 from shoal.tools.progress import advance_to, progress_bar
 from shoal.tools.verify import VerifyError
@@ -32,6 +33,7 @@ def verify(files: tuple[Path, ...]) -> None:
         click.echo(
             f"{file}: {verdict.scenario}, {verdict.matching} of {verdict.recorded} recorded "
             f"ticks match the reference simulator"
+            + (f" (with the {verdict.layer} layer)" if verdict.layer != SafetyLayer.REFEREE else "")
             + ("" if verdict.ok else f"; first mismatch at tick {verdict.first_mismatch}")
         )
         failed += not verdict.ok
