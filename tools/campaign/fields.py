@@ -33,7 +33,7 @@ import numpy as np
 import yaml
 
 from shoal.agent.consensus import passage_bid
-from shoal.bus.types import PathSpec, Sinusoid, Waypoints
+from shoal.bus.types import PathSpec, SafetyLayer, Sinusoid, Waypoints
 from shoal.geometry.path import path_position, peak_speed
 from shoal.geometry.vectors import FloatArray, shaped
 from shoal.world import assumptions
@@ -134,6 +134,9 @@ class FieldOptions:
         the default for the field's agents (gritsbot for unicycles, holonomic otherwise).
     latency : s from a command to the motors acting on it, with ``plant`` mujoco; None: the
         preset's.
+    layer : the safety layer the reference runs each field with (``--safety-layer``): the
+        referee, or the reach layer (world/reach_layer.py, the referee for robots with mass);
+        the field's YAML says it in its "Reproduce:" line, the field drawn does not depend on it.
     """
 
     length: float = 14.0
@@ -154,6 +157,7 @@ class FieldOptions:
     plant: str = KINEMATICS
     dynamics: str | None = None
     latency: float | None = None
+    layer: SafetyLayer = SafetyLayer.REFEREE
 
 
 def robots_section(opts: FieldOptions, unicycles: bool) -> dict[str, Any] | None:
@@ -252,7 +256,8 @@ def make_field(
     data["obstacles"] = [{"centre": list(o.centre), "radius": o.radius} for o in placer.obstacles]
     if mode == "reach":
         data["control"] = _short_sight(placer.scenario(), rng)
-    text = _header(base, seed, mode, opts.plant) + yaml.safe_dump(data, sort_keys=False)
+    header = _header(base, seed, mode, opts.plant, opts.layer)
+    text = header + yaml.safe_dump(data, sort_keys=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ScenarioWarning)
         field = load_field(text) if mode in REFUSED else parse_scenario(text)
@@ -272,7 +277,13 @@ def _confirm(field: Scenario, mode: str) -> None:
         raise FieldError(f"{field.name}: the gap is passable within σ_max")
 
 
-def _header(base: Scenario, seed: int, mode: str, plant: str = KINEMATICS) -> str:
+def _header(
+    base: Scenario,
+    seed: int,
+    mode: str,
+    plant: str = KINEMATICS,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
+) -> str:
     if mode == "inside":
         what = "inside the paper's assumptions (every load-time check passes)"
     else:
@@ -282,13 +293,15 @@ def _header(base: Scenario, seed: int, mode: str, plant: str = KINEMATICS) -> st
     return (
         f"# A random obstacle field of `shoal campaign` (tools/campaign/fields.py): "
         f"base {base.name!r}, seed {seed}, mode {mode}.\n# {what}.\n"
-        f"# Reproduce: {rerun}{plant_option(plant)} THIS_FILE\n"
+        f"# Reproduce: {rerun}{plant_option(plant, layer)} THIS_FILE\n"
     )
 
 
-def plant_option(plant: str) -> str:
-    """What a rerun command needs to run a field on ``plant`` (its robots are in the file)."""
-    return "" if plant == KINEMATICS else f" --plant {plant}"
+def plant_option(plant: str, layer: SafetyLayer = SafetyLayer.REFEREE) -> str:
+    """What a rerun command needs to run a field on ``plant`` (its robots are in the file)
+    through ``layer``."""
+    given = "" if plant == KINEMATICS else f" --plant {plant}"
+    return given + ("" if layer == SafetyLayer.REFEREE else f" --safety-layer {layer}")
 
 
 def _cut_path(path: PathSpec, length: float) -> tuple[PathSpec, float]:

@@ -36,11 +36,13 @@ from typing import Any
 import numpy as np
 import yaml
 
+from shoal.bus.types import SafetyLayer
 from shoal.geometry.path import path_position
-from shoal.tools.campaign.fields import FieldError, unicycle_fields, unicycle_for
+from shoal.tools.campaign.fields import FieldError, plant_option, unicycle_fields, unicycle_for
 from shoal.tools.campaign.shapes import SHAPES, offsets, sparsest_graph
 from shoal.world.errors import ScenarioWarning, SpeedCapWarning, WorldError
 from shoal.world.loader import parse_scenario, scenario_from_dict
+from shoal.world.plant import KINEMATICS, MUJOCO
 from shoal.world.scenario import Scenario
 
 # The campaign's sets of hard fields (``shoal campaign --kind hard``), by dimension.
@@ -59,14 +61,16 @@ def hard_field(
     boundary_layer: float = 0.0,
     unicycles: bool = False,
     robots: dict[str, Any] | None = None,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
 ) -> Scenario:
     """Hard field number ``seed`` in ``dim`` dimensions (2 or 3). ``boundary_layer`` K > 0:
     the same field with the optional boundary layer φ = K·β·dt (sat(e/φ) in place of the
     paper's sign(e)); the field drawn does not depend on it. ``unicycles`` (2-D only): every
     agent a unicycle (fields.py's ``unicycle_for``, headings drawn per field); the field is the
     one drawn for single integrators unless its skeleton does not admit them. ``robots``: the
-    field's ``dynamics:`` section for a physics plant (fields.py ``robots_section``), which
-    does not change the field drawn either."""
+    field's ``dynamics:`` section for a physics plant (fields.py ``robots_section``), and
+    ``layer`` the safety layer its "Reproduce:" line names, neither of which changes the field
+    drawn either."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim}")
     for sub in range(SKELETONS):
@@ -80,7 +84,7 @@ def hard_field(
             c["boundary_layer"] = _round(boundary_layer * c["beta"] * data["dt"])
         if robots is not None:
             data["dynamics"] = robots
-        text = _header(seed, dim, robots is not None) + yaml.safe_dump(
+        text = _header(seed, dim, robots is not None, layer) + yaml.safe_dump(
             data, sort_keys=False, width=100
         )
         with warnings.catch_warnings():
@@ -89,8 +93,10 @@ def hard_field(
     raise FieldError(f"hard field {seed} ({dim}-D): no skeleton the loader accepts")
 
 
-def _header(seed: int, dim: int, physics: bool = False) -> str:
-    plant = " --plant mujoco" if physics else ""
+def _header(
+    seed: int, dim: int, physics: bool = False, layer: SafetyLayer = SafetyLayer.REFEREE
+) -> str:
+    plant = plant_option(MUJOCO if physics else KINEMATICS, layer)
     return (
         "# A hard field of `shoal campaign --kind hard` (tools/campaign/hard.py): "
         f"seed {seed}, {dim}-D.\n# Admissible: every load-time check passes.\n"

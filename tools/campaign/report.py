@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from shoal.bus.types import SafetyLayer
 from shoal.tools.campaign.fields import BREACHES, REFUSED, plant_option
 from shoal.tools.campaign.hard import HARD_MODES
 from shoal.tools.campaign.runner import Outcome
@@ -45,6 +46,7 @@ def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
     ]
     causes = Counter(o.not_arrived for o in ran if not o.arrived)
     physics = any(o.plant != KINEMATICS for o in ran)
+    reach = any(o.reach_brakes is not None for o in ran)
     return {
         "fields": len(ran),
         "not_drawn": len(outcomes) - len(ran),
@@ -79,6 +81,7 @@ def summarize_set(outcomes: Sequence[Outcome]) -> dict[str, Any]:
         "longest_livelock": max((o.longest_livelock for o in ran), default=0.0),
         "cpu_s": round(sum(o.seconds for o in ran), 2),
         **(engine_figures(ran) if physics else {}),
+        **(layer_figures(ran) if physics or reach else {}),
     }
 
 
@@ -99,6 +102,25 @@ def engine_figures(ran: Sequence[Outcome]) -> dict[str, Any]:
         "tracking_error_p50": _median(o.tracking_error_p50 for o in ran),
         "tracking_error_p99": _median(o.tracking_error_p99 for o in ran),
         "tracking_error_max": max(_finite(o.tracking_error_max for o in ran), default=None),
+    }
+
+
+def layer_figures(ran: Sequence[Outcome]) -> dict[str, Any]:
+    """A set's figures for the price of its safety layer, where robots have mass or the reach
+    layer ran: the layer(s); the reach layer's counts (None under the referee): robot-ticks
+    told to stop and the fields with any, agent-ticks slowed (sums), the largest margin any
+    certified step needed, m; and the time to goal, s: the median and the largest arrival time
+    over the fields that arrived (None: none did)."""
+    reached = [o for o in ran if o.reach_brakes is not None]
+    times = [o.arrival_time for o in ran if o.arrived and o.arrival_time is not None]
+    return {
+        "safety_layer": ", ".join(sorted({o.safety_layer for o in ran})),
+        "reach_brakes": sum(o.reach_brakes or 0 for o in reached) if reached else None,
+        "reach_brake_fields": sum(bool(o.reach_brakes) for o in reached) if reached else None,
+        "reach_slowed": sum(o.reach_slowed or 0 for o in reached) if reached else None,
+        "reach_largest_margin": max(_finite(o.reach_largest_margin for o in reached), default=None),
+        "arrival_time_p50": _median(times),
+        "arrival_time_max": max(times, default=None),
     }
 
 
@@ -135,12 +157,15 @@ def report(outcomes: Sequence[Outcome], wall: float, jobs: int) -> dict[str, Any
          o.obstacle_collisions, "agent_collisions": o.agent_collisions,
          "min_clearance": o.min_clearance, "min_interagent_distance": o.min_interagent_distance,
          "rerun": ("campaign --rerun" if o.mode in REFUSED else "simulate")
-         + plant_option(o.plant), "safety": o.safety,
+         + plant_option(o.plant, SafetyLayer(o.safety_layer)), "safety": o.safety,
          **({} if o.plant == KINEMATICS else {  # the engine does not split them by kind
              "obstacle_collisions": None, "agent_collisions": None,
              "collisions": o.engine_collisions, "engine_contacts": o.engine_contacts,
              "engine_deepest_contact": o.engine_deepest_contact,
-             "guard_margin": o.guard_margin, "separation_margin": o.separation_margin})}
+             "guard_margin": o.guard_margin, "separation_margin": o.separation_margin}),
+         **({} if o.reach_brakes is None else {
+             "safety_layer": o.safety_layer, "reach_brakes": o.reach_brakes,
+             "reach_slowed": o.reach_slowed, "reach_largest_margin": o.reach_largest_margin})}
         for o in outcomes if o.error is None and o.collided
     ]  # fmt: skip
     lagging = [
@@ -178,6 +203,10 @@ def _num(value: Any, digits: int = 3) -> str:
 
 def _int(value: int | None) -> str:
     return "—" if value is None else str(value)
+
+
+def _seconds(value: float | None) -> str:
+    return "—" if value is None else f"{value:.2f} s"
 
 
 def _rate(part: int, whole: int) -> str:
@@ -224,6 +253,17 @@ ENGINE_COLUMNS = (
 )  # fmt: skip
 
 
+# The columns of the safety layer's price table (robots with mass, or the reach layer).
+LAYER_COLUMNS = (
+    ("layer", "what stood between the commands and the robots' motion (--safety-layer)"),
+    ("brakes, fields", "reach: robot-ticks told to stop (their bounds did not hold), summed, "
+     "and the fields with any"),
+    ("slowed", "reach: agent-ticks whose speed its braking cap lowered, summed"),
+    ("largest margin", "reach: the most any certified step needed, m"),
+    ("arrival p50, max", "time to goal of the fields that arrived: median and largest, s"),
+)  # fmt: skip
+
+
 def legend(columns: tuple[tuple[str, str], ...] = COLUMNS) -> str:
     """The columns of :func:`render`'s tables, one line each."""
     width = max(len(name) for name, _ in columns)
@@ -248,6 +288,27 @@ def _engine_table(rep: dict[str, Any]) -> list[str]:
             f"{s['entered_guard']:>8} {s['entered_separation']:>12}   "
             f"{_num(s['tracking_error_p50']):>12} {_num(s['tracking_error_p99'], 2):>6} "
             f"{_num(s['tracking_error_max'], 2):>6}"
+        )
+    return [*rows, ""]
+
+
+def _layer_table(rep: dict[str, Any]) -> list[str]:
+    """Per set, the safety layer's price: the reach layer's brakes, slowed ticks and largest
+    margin beside the time to goal (to set against the referee's, and against the engine's
+    contacts and margins above). Nothing for a kinematic campaign with the referee."""
+    sets = {mode: s for mode, s in rep["sets"].items() if "safety_layer" in s}
+    if not sets:
+        return []
+    rows = [
+        f"{'set':<12} {'layer':<8} {'brakes':>7} {'fields':>6} {'slowed':>8} "
+        f"{'largest margin':>14}   {'arrived':>18} {'arrival p50':>11} {'max':>8}"
+    ]
+    for mode, s in sets.items():
+        rows.append(
+            f"{mode:<12} {s['safety_layer']:<8} {_int(s['reach_brakes']):>7} "
+            f"{_int(s['reach_brake_fields']):>6} {_int(s['reach_slowed']):>8} "
+            f"{_num(s['reach_largest_margin']):>14}   {_rate(s['arrived'], s['fields']):>18} "
+            f"{_seconds(s['arrival_time_p50']):>11} {_seconds(s['arrival_time_max']):>8}"
         )
     return [*rows, ""]
 
@@ -288,7 +349,7 @@ def render(rep: dict[str, Any]) -> str:
             f"{s['longest_livelock']:>7.2f}s   {s['leader_reached']:>14}   "
             f"{_rate(s['arrived'], s['fields']):>18}"
         )
-    lines = [*safety, "", *runs, "", *liveness, "", *_engine_table(rep)]
+    lines = [*safety, "", *runs, "", *liveness, "", *_engine_table(rep), *_layer_table(rep)]
     for mode, s in rep["sets"].items():
         if mode in BREACHES and s["safety"] == "filter":
             lines.append(f"{mode:<12} breaks {s['breaks']}: {BREACHES[mode].what}")
@@ -319,6 +380,13 @@ def render(rep: dict[str, Any]) -> str:
             + ("" if latency is None else f", latency {1000 * latency:g} ms")
             + "): collisions, clearances and margins are the engine's, at every physics step, "
             "not split by kind; the filter's theorem is for robots that move as commanded"
+        )
+    if any("safety_layer" in s for s in rep["sets"].values()):
+        lines.append(legend(LAYER_COLUMNS))
+    if rep.get("safety_layer") == SafetyLayer.REACH:
+        notes += (
+            "; every field through the reach layer (--safety-layer reach): each step certified "
+            "from what the robot can reach given its dynamics"
         )
     lines.append(notes)
     lines.append(

@@ -6,7 +6,9 @@ figures ``shoal simulate`` prints; the campaign only splits collisions by kind a
 per set (inside, and outside by the assumption broken). An inside field that collides falsifies the
 guarantee; an outside one is data. On robots with mass (``--plant mujoco``) the engine judges
 collisions, clearances and margins along its own motion, as in ``shoal simulate --plant
-mujoco``, and the ticks judge the rest. The report of a campaign is tools/campaign/report.py's.
+mujoco``, and the ticks judge the rest. With ``--safety-layer reach`` each field runs through
+the reach layer, whose counts join its outcome. The report of a campaign is
+tools/campaign/report.py's.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from shoal.bus.types import SafetyLayer
 from shoal.tools.campaign.fields import BREACHES, FieldOptions, make_field, robots_section
 from shoal.tools.campaign.hard import HARD_MODES, hard_field
 from shoal.tools.simulator import reference
@@ -111,6 +114,13 @@ class Outcome:
     tracking_error_p50: float | None = None
     tracking_error_p99: float | None = None
     tracking_error_max: float | None = None
+    # The layer between the commands and the robots' motion; the reach layer's counts (None
+    # under the referee): robot-ticks told to stop, bounds broken; agent-ticks its braking cap
+    # slowed; the largest margin a certified step needed, m.
+    safety_layer: str = str(SafetyLayer.REFEREE)
+    reach_brakes: int | None = None
+    reach_slowed: int | None = None
+    reach_largest_margin: float | None = None
 
     @property
     def collisions(self) -> int:
@@ -145,22 +155,39 @@ def _base(text: str, name: str) -> Scenario:
 
 
 def judge(
-    field: Scenario, mode: str = "", seconds: float = 0.0, plant: str = KINEMATICS
+    field: Scenario,
+    mode: str = "",
+    seconds: float = 0.0,
+    plant: str = KINEMATICS,
+    layer: SafetyLayer = SafetyLayer.REFEREE,
 ) -> Outcome:
     """Run ``field`` (of set ``mode``) through the reference simulator on ``plant`` (the
-    robots its ``dynamics:`` section names) and measure it; ``seconds`` of CPU already spent on
-    it (drawing it) count towards its time."""
+    robots its ``dynamics:`` section names) and ``layer``, and measure it; ``seconds`` of CPU
+    already spent on it (drawing it) count towards its time."""
     start = time.process_time()
-    traj, judged = reference(field, plant=plant)
+    traj, judged = reference(field, plant=plant, layer=layer)
     swept = Sweep.of(field, traj)
     summary = summarize(field, traj, swept=swept)
     outcome = measure(field, traj, summary, mode, 0.0, swept)
-    if judged:
+    if "plant" in judged:  # a physics plant's judgement (the kinematic plant gives none)
         outcome = engine_judged(outcome, judged)
         outcome = dataclasses.replace(
             outcome, source=field.source if outcome.collided or outcome.lagged else ""
         )
+    if "reach_brakes" in judged:
+        outcome = reach_judged(outcome, judged)
     return dataclasses.replace(outcome, seconds=seconds + time.process_time() - start)
+
+
+def reach_judged(outcome: Outcome, judged: dict[str, Any]) -> Outcome:
+    """``outcome`` with the reach layer's counts (world/reach_layer.py ``Reach.report``)."""
+    return dataclasses.replace(
+        outcome,
+        safety_layer=str(judged["safety_layer"]),
+        reach_brakes=int(judged["reach_brakes"]),
+        reach_slowed=int(judged["reach_slowed"]),
+        reach_largest_margin=float(judged["reach_largest_margin"]),
+    )
 
 
 def engine_judged(outcome: Outcome, judged: dict[str, Any]) -> Outcome:
@@ -243,13 +270,14 @@ def run_task(task: Task) -> Outcome:
             robots = robots_section(task.options, unicycles)
             field = hard_field(
                 task.seed, HARD_MODES[task.mode], boundary_layer=k, unicycles=unicycles,
-                robots=robots,
+                robots=robots, layer=task.options.layer,
             )  # fmt: skip
         else:
             field = make_field(_base(task.base, task.base_name), task.seed, task.mode, task.options)
     except WorldError as exc:
         return _failed(task, str(exc))
-    return judge(field, task.mode, time.process_time() - start, task.options.plant)
+    spent = time.process_time() - start
+    return judge(field, task.mode, spent, task.options.plant, task.options.layer)
 
 
 def _failed(task: Task, error: str) -> Outcome:

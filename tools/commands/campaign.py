@@ -52,7 +52,7 @@ from shoal.tools.campaign.swarms import (
     run_swarms,
     swarm_report,
 )
-from shoal.tools.commands.options import check_plant, load_for_cli
+from shoal.tools.commands.options import check_layer, check_plant, layer_option, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.extras import require
 from shoal.tools.procs.children import PLANT_OPTIONS, WorldSpec, click_options
@@ -245,6 +245,7 @@ def _count(text: str) -> tuple[int, int]:
     help="--plant mujoco: every robot's actuation latency, ms, from a command to its motors "
     "acting on it [default: the preset's]. Written into each field's dynamics: section.",
 )  # fmt: skip
+@layer_option("every field's reference run (not --swarm: --swarm-safety-layer; not --people)")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def campaign(**params: Any) -> None:
     """Run many random obstacle fields through the reference simulator, in parallel.
@@ -258,6 +259,8 @@ def campaign(**params: Any) -> None:
 
     --plant mujoco runs every field on robots with mass (docs/campaign.md, Robots with mass):
     the engine judges collisions and margins, and each saved field carries its robots.
+    --safety-layer reach runs every field through the reach layer and reports its brakes,
+    slowed ticks and largest margin beside the time to goal.
     """
     if params["rerun"] is not None:
         if params["latency_ms"] is not None:
@@ -265,7 +268,9 @@ def campaign(**params: Any) -> None:
                 "not with --rerun: the saved field's dynamics: section sets it",
                 param_hint="--latency-ms",
             )
-        _rerun(params["rerun"], params["as_json"], params["plant"], params["dynamics"])
+        _rerun(
+            params["rerun"], params["as_json"], params["plant"], params["dynamics"], params["layer"]
+        )
         return
     config = _config(params)
     _check_robots(config, params)
@@ -310,6 +315,7 @@ def _config(params: Mapping[str, Any]) -> Campaign:
         kinematics=params["kinematics"], speed_limit=params["speed_limit"],
         position_error=params["position_error"], plant=params["plant"],
         dynamics=params["dynamics"], latency=None if latency is None else latency / 1000,
+        layer=params["layer"],
     )  # fmt: skip
     people, safety = params["people"], params["safety"]
     scn = load_for_cli(params["base"] or ("crossing" if people is not None else "obstacles"))
@@ -337,11 +343,18 @@ def _config(params: Mapping[str, Any]) -> Campaign:
 
 
 def _check_robots(c: Campaign, params: Mapping[str, Any]) -> None:
-    """Refuse a --plant, --dynamics or --latency-ms that cannot run the campaign's fields,
-    before any runs: physics options without robots with mass, a physics plant for swarms or
-    people, MuJoCo not installed, a preset that fits none of the fields' agents (checked on the
-    first field, drawn without its robots: every field's agents are of one kind)."""
+    """Refuse a --plant, --dynamics, --latency-ms or --safety-layer that cannot run the
+    campaign's fields, before any runs: physics options without robots with mass, a physics
+    plant or the reach layer for swarms or people, MuJoCo not installed, a preset that fits
+    none of the fields' agents, a layer that refuses them (checked on the first field, drawn
+    without its robots: every field's agents are of one kind)."""
     plant, robots = c.fields.plant, c.fields
+    if robots.layer != SafetyLayer.REFEREE and (params["swarm"] is not None or c.crowd is not None):
+        raise click.UsageError(
+            f"--safety-layer {robots.layer} is the reference runs' layer: not with --swarm "
+            "(--swarm-safety-layer) or --people"
+        )
+    _check_layer(c)
     if plant == KINEMATICS and params["latency_ms"] is not None:
         raise click.BadParameter(
             "is for robots with mass: add --plant mujoco", param_hint="--latency-ms"
@@ -365,6 +378,25 @@ def _check_robots(c: Campaign, params: Mapping[str, Any]) -> None:
     if robots.dynamics is not None:
         _fits(sample, robots.dynamics)
     check_plant(sample, plant, robots.dynamics)
+
+
+def _check_layer(c: Campaign) -> None:
+    """The fields' --safety-layer accepts them: checked on the first field of each safety
+    mode (the reach layer refuses unicycles and safety: paper)."""
+    opts = c.fields
+    if opts.layer == SafetyLayer.REFEREE:
+        return
+    for safety in c.modes:
+        bare = dataclasses.replace(opts, plant=KINEMATICS, dynamics=None, latency=None,
+                                   safety=safety)  # fmt: skip
+        try:
+            if c.hard:
+                sample = hard_field(c.seed, 2, unicycles=bare.kinematics == "unicycle")
+            else:
+                sample = make_field(c.base, c.seed, "inside", bare)
+        except FieldError:
+            continue  # the campaign reports the field it cannot draw
+        check_layer(sample, opts.layer, None)
 
 
 def _fits(sample: Scenario, name: str) -> None:
@@ -403,6 +435,8 @@ def _reference(c: Campaign, where: Workers) -> None:
         ran = {s["dynamics"] for s in rep["sets"].values() if "dynamics" in s}
         rep.update(plant=c.fields.plant, dynamics=", ".join(sorted(ran)),
                    latency=c.fields.latency)  # fmt: skip
+    if c.fields.layer != SafetyLayer.REFEREE:
+        rep["safety_layer"] = str(c.fields.layer)
     if c.save_failures is not None:
         _saved(rep["failures"], write_failures(outcomes, c.save_failures))
     if c.save_lagging is not None:
@@ -537,20 +571,23 @@ def _json_safe(value: Any) -> Any:
     return value
 
 
-def _rerun(path: Path, as_json: bool, plant: str, dynamics: str | None) -> None:
+def _rerun(path: Path, as_json: bool, plant: str, dynamics: str | None, layer: SafetyLayer) -> None:
     """Run one saved field; also those the loader refuses because they break an assumption.
-    On ``plant`` mujoco the engine's judgement replaces the ticks', as in ``shoal simulate``."""
+    On ``plant`` mujoco the engine's judgement replaces the ticks', as in ``shoal simulate``;
+    through ``layer``."""
     try:
         field = load_field(path.read_text(encoding="utf-8"))
     except ScenarioError as exc:
         raise click.ClickException(f"{path}: {exc}") from None
     check_plant(field, plant, dynamics)
-    traj, judged = reference(field, plant=plant, dynamics=dynamics)
+    check_layer(field, layer, dynamics)
+    traj, judged = reference(field, plant=plant, dynamics=dynamics, layer=layer)
     result = summarize(field, traj)
     outcome = measure(field, traj, result)
     summary = json_safe({**result.as_dict(), **judged})
     summary.update(breaks=sorted(breaches(field)))
-    if not judged:  # the engine does not split its collisions by kind
+    by_kind = "plant" not in judged  # the engine does not split its collisions by kind
+    if by_kind:
         summary.update(
             obstacle_collisions=outcome.obstacle_collisions,
             agent_collisions=outcome.agent_collisions,
@@ -559,7 +596,7 @@ def _rerun(path: Path, as_json: bool, plant: str, dynamics: str | None) -> None:
         click.echo(json.dumps(summary))
         return
     click.echo(render_summary(summary))
-    if not judged:
+    if by_kind:
         click.echo(
             f"{'collisions by kind':<24}  {outcome.obstacle_collisions} agent–obstacle, "
             f"{outcome.agent_collisions} agent–agent"
