@@ -335,6 +335,14 @@ def installed(_install_in_background: Build | None) -> Path:
 # of that guarantee. A key is a test's node id without its parameters (every case), with them
 # (that case), or a module (every test in it).
 SLOW = {
+    "tests/tools/test_campaign_reach.py::test_a_reach_campaigns_outcomes_carry_the_layers_counts":
+        "a whole campaign on the physics plant; the module's other tests keep the option's checks",
+    "tests/world/test_reach.py::test_latency_ignored_breaches":
+        "twelve runs of three robots with mass; the fast lane keeps the property test and a mutant",
+    "tests/world/test_reach.py::test_lag_ignored_breaches":
+        "twelve runs of three robots with mass; the fast lane keeps the property test and a mutant",
+    "tests/world/test_reach.py::test_pose_age_ignored_breaches":
+        "twelve runs of three robots with mass; the fast lane keeps the property test and a mutant",
     "tests/agent/test_controller.py::test_a_follower_pressed_against_the_leader_at_its_goal_goes_round_it":
         "a whole run to the goal; the fast lane keeps the module's other evasion fixes",
     "tests/agent/test_controller.py::test_an_evasion_beside_a_slot_just_outside_the_guard_ends":

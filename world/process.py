@@ -186,10 +186,13 @@ class World(Declarations):
 
     def _scenario_document(self) -> dict[str, Any]:
         """The scenario as the log records it: its text, under the name it ran as, and the
-        simulated plant that moved it unless the world's own kinematics did."""
+        simulated plant that moved it unless the world's own kinematics did, and the reach
+        layer when it certified the steps (a log cut before its summary still re-runs with it)."""
         doc: dict[str, Any] = {"name": self.scenario.name, "yaml": self.scenario.source}
         if self.options.plant_name != KINEMATICS:
             doc |= {"plant": self.options.plant_name, "dynamics": self.options.dynamics}
+        if self.layer == SafetyLayer.REACH:
+            doc |= {"safety_layer": str(self.layer), "dynamics": self.options.dynamics}
         return doc
 
     # -- ticks ----------------------------------------------------------------------------------

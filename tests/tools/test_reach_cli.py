@@ -81,6 +81,15 @@ def test_unicycles_are_refused_by_name_without_a_traceback() -> None:
     assert "Traceback" not in result.output
 
 
+@pytest.mark.parametrize("command", [("run",), ("world", "--run", "r1")])
+def test_run_and_world_refuse_unicycles_before_anything_starts(command: tuple[str, ...]) -> None:
+    """``shoal run`` and ``shoal world`` say why before a router or an agent is started."""
+    result = shoal(*command, "robotarium", "--safety-layer", "reach")
+    assert result.exit_code == 2, result.output
+    assert "--safety-layer reach cannot run robotarium" in result.stderr
+    assert "unicycles" in result.stderr
+
+
 def test_safety_paper_is_refused_by_name(tmp_path: Path) -> None:
     crash = tmp_path / "crash.yaml"
     crash.write_text(CRASH)

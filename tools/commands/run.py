@@ -18,6 +18,7 @@ from shoal.bus.secure import Material
 from shoal.bus.types import Clock, SafetyLayer
 from shoal.tools.certs import CertError
 from shoal.tools.commands.options import (
+    check_layer,
     check_plant,
     live_options,
     live_view,
@@ -206,6 +207,8 @@ def _plan(params: Mapping[str, Any]) -> RunPlan:
     mode's material checked; the run id and the log's path decided."""
     scn = load_for_cli(params["scenario"])
     check_plant(scn, params["plant"], params["dynamics"], params["robots"])
+    if params["safety_layer"] is not None:
+        check_layer(scn, SafetyLayer(params["safety_layer"]), params["dynamics"])
     secure, secure_dir, run_id = params["secure"], params["secure_dir"], params["run_id"]
     if secure and params["connect"] and secure_dir is None:
         raise click.BadParameter(

@@ -14,7 +14,7 @@ from shoal.bus.acl import WORLD
 from shoal.bus.runtime import exit_on_signals
 from shoal.bus.seam import ZenohBus
 from shoal.bus.types import Clock
-from shoal.tools.commands.options import check_plant, load_for_cli
+from shoal.tools.commands.options import check_layer, check_plant, load_for_cli
 from shoal.tools.commands.report import json_safe, render_summary
 from shoal.tools.extras import require
 from shoal.tools.procs.children import WorldSpec, click_options
@@ -113,6 +113,8 @@ def world(as_json: bool, **params: Any) -> None:
         start_timeout=spec.start_timeout,
     )
     check_plant(scn, spec.plant, spec.dynamics, spec.robots)
+    if spec.safety_layer is not None:
+        check_layer(scn, spec.safety_layer, spec.dynamics)
     with contextlib.ExitStack() as stack:
         plant = stack.enter_context(robots_of(spec, scn))
         if spec.plant != KINEMATICS:
