@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from shoal.bus.messages import Sensing
-from shoal.bus.types import ControlParams, SafetyLayer
+from shoal.bus.types import ControlParams, SafetyLayer, Vector
 from shoal.geometry.safety import SafetyFilter
 from shoal.geometry.vectors import FloatArray
 from shoal.world.plant import Observed
@@ -131,7 +131,7 @@ class Reach:
         dt = self.dt
         if not _fits(track.margin(start, 0.0), 0.0, budget, horizon, dt):
             return None
-        nominal = tuple(nominal_row.tolist())
+        nominal = _shaped(tuple(nominal_row.tolist()), start.before, track.bounds.braking * dt)
         speed = math.hypot(*nominal)
         fastest = min(speed, p.speed_limit)
         way = tuple([x / speed for x in nominal]) if speed > 0.0 else nominal
@@ -217,3 +217,16 @@ def _fastest(
         else:
             hi = mid
     return lo
+
+
+def _shaped(nominal: Vector, before: Vector, most: float) -> Vector:
+    """``nominal`` changed from the command in force ``before`` by at most ``most`` m/s (the
+    robot's braking over a tick): a robot with mass cannot follow a larger change anyway, and
+    asking for it only widens the envelope every certified step has to make room for (a sign
+    law's nominal turns about at every tick). Unchanged when the change is within it (always for
+    a robot without an acceleration limit)."""
+    change = math.dist(nominal, before)
+    if change <= most:
+        return nominal
+    k = most / change
+    return tuple([b + (x - b) * k for x, b in zip(nominal, before, strict=True)])

@@ -107,6 +107,23 @@ def test_a_pose_older_than_the_horizon_brakes_the_robot() -> None:
     assert layer.report()["reach_brakes"] == 1
 
 
+def test_a_nominal_that_turns_about_every_tick_is_followed_at_the_robots_braking() -> None:
+    """A sign law's nominal flips at every tick; a base that brakes at 2 m/s² is asked to
+    change its velocity by at most 2·dt per tick, so its envelope (and every margin) stays
+    small instead of growing with each flip."""
+    layer = Reach(_params(), DT, [Bounds(braking=2.0, lag=0.02)], 0.6)
+    poses = np.array([[10.0, 10.0]])
+    before = np.zeros((1, 2))
+    for k in range(50):
+        nominal = np.array([[SPEED if k % 2 else -SPEED, 0.5]])
+        out = layer.act(k, sensings(k, poses, CENTRES, RADII), nominal, None)
+        assert np.linalg.norm(out - before) <= 2.0 * DT * (1 + 1e-12)
+        before = out
+    # m: no more than its stop from the 0.5 m/s it keeps (v²/2a = 0.0625 m) and a little lag;
+    # unshaped, each flip's 4 m/s jump would be in the envelope: (4 m/s)²/2a alone is 4 m
+    assert layer.largest_margin < 0.0625 + 0.01
+
+
 def test_with_ideal_bounds_it_is_the_referee_bit_for_bit() -> None:
     """Robots that move as commanded: every margin is 0 and each step is the referee's."""
     s = load_scenario("obstacles")
