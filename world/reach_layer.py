@@ -152,8 +152,10 @@ class Reach:
             m = margin(v)
             slowed = v < fastest
             base = self.filters[i]
+            # The speed the margin was taken for caps the step: the filter never lengthens a
+            # nominal, but with a person within reach it may flee at its speed limit.
             f = base if m == 0.0 and not slowed else dataclasses.replace(
-                base, margin=rho + m, speed_limit=v if slowed else p.speed_limit
+                base, margin=rho + m, speed_limit=v
             )  # fmt: skip
             shifts = [m - offset for offset in offsets] if m != 0.0 or any(offsets) else ()
             u = f(nominal, moved, shifts=shifts).velocity

@@ -18,6 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from shoal.bus.messages import Mover
 from shoal.bus.types import ControlParams, SafetyLayer
 from shoal.tools.simulator import run
 from shoal.world.loader import load_scenario
@@ -122,6 +123,23 @@ def test_a_nominal_that_turns_about_every_tick_is_followed_at_the_robots_braking
     # m: no more than its stop from the 0.5 m/s it keeps (v²/2a = 0.0625 m) and a little lag;
     # unshaped, each flip's 4 m/s jump would be in the envelope: (4 m/s)²/2a alone is 4 m
     assert layer.largest_margin < 0.0625 + 0.01
+
+
+def test_a_robot_fleeing_a_person_is_no_faster_than_its_margin_allows() -> None:
+    """With a person within reach the filter may flee at its speed limit; the step must still
+    be no faster than the speed its margin was taken for (here what a robot at rest is asked
+    for, its braking over a tick: 0.04 m/s), else the next tick's standing no longer fits
+    (crossing on bases braked 22 robot-ticks so; the person here made it flee at 1 m/s)."""
+    layer = Reach(_params(), DT, [Bounds(latency=DT, braking=2.0, lag=0.02)], 0.0)
+    person = Mover(obstacle_id=9, centre=(0.40, 0.0), radius=0.2, velocity=(-1.0, 0.0),
+                   speed_cap=1.0)  # fmt: skip
+    poses = np.array([[0.0, 0.0]])
+    sensing = dataclasses.replace(
+        sensings(0, poses, np.zeros((0, 2)), np.zeros(0))[0], movers=(person,)
+    )
+    out = layer.act(0, [sensing], np.array([[0.0, 0.1]]), None)
+    assert out[0, 0] < 0.0  # away from the person
+    assert np.linalg.norm(out[0]) <= 2.0 * DT * (1 + 1e-12)
 
 
 def test_with_ideal_bounds_it_is_the_referee_bit_for_bit() -> None:
