@@ -537,6 +537,22 @@ def check_speed(s: Scenario) -> None:
         )
 
 
+def unlimited(s: Scenario) -> str | None:
+    """What it costs that ``s`` sets no ``control.speed_limit`` (None if it sets one, or if
+    every agent is a unicycle, whose wheels give the limit): the largest speed the safety
+    theorem admits is used, which no robot has. Said once by the command line, not warned on
+    every load: the reference, the lockstep runs and the proofs hold with it all the same."""
+    if s.control.speed_limit is not None or all(not a.single for a in s.agents):
+        return None
+    return (
+        f"{s.name}: control.speed_limit is not set, so the largest the safety theorem admits, "
+        f"{s.speed_limit:.3g} m/s, is used. No robot drives that fast: in realtime each "
+        "robot's own safety layer then stands at every snapshot until its neighbours' arrive "
+        "(docs/safety.md, Without a referee), and robots with mass are asked for speeds they "
+        "cannot follow (docs/physics.md). Set it to your robots' top speed"
+    )
+
+
 def cap_needed(path: PathSpec, beta: float) -> float:
     """m/s: the least speed limit under which a follower's capped law still closes its error
     in every coordinate, whatever the leader's velocity f on ``path``.

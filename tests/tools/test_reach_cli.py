@@ -70,7 +70,7 @@ def test_simulate_with_the_referee_has_no_reach_counts(tmp_path: Path) -> None:
     result = shoal("simulate", str(short), "--json", "--safety-layer", "referee")
     assert result.exit_code == 0, result.output
     assert not any(key in json.loads(result.stdout) for key in REACH_KEYS)
-    assert "reach" not in shoal("simulate", str(short)).stdout
+    assert "told to stop" not in shoal("simulate", str(short)).stdout
 
 
 def test_unicycles_are_refused_by_name_without_a_traceback() -> None:
@@ -107,7 +107,7 @@ def test_the_summary_shows_the_reach_row_only_for_the_reach_layer(tmp_path: Path
     shown = render_summary(reach)
     assert "3 robot-ticks told to stop" in shown and "41 agent-ticks slowed" in shown
     assert "largest margin 0.250 m" in shown
-    assert "reach" not in render_summary({**base, "safety_layer": "referee"})
+    assert "told to stop" not in render_summary({**base, "safety_layer": "referee"})
 
 
 def test_verify_takes_the_layer_from_the_log() -> None:

@@ -135,11 +135,17 @@ DIGESTS = {
     # waited for r + ρ + ε), judged along the gated heading (Controller._follow). default and
     # obstacles evade as before and arrive at the same tick (35.81 s, 59.81 s); obstacles has
     # 13 Ω episodes instead of 15, least clearance 0.224 m instead of 0.244 m (ρ = 0.2).
-    ("default", "filter"): "a20a4de611b81330",
+    # 2026-12-08: default, obstacles, passage and sinusoid carry a speed limit, 4 m/s (a small
+    # holonomic base's top speed; before, the largest the theorem admits: 230 m/s, 280 for
+    # passage). The finite-time law's transients are capped in 4.3 %, 1.3 %, 2.8 % and 0.7 % of
+    # agent-ticks; arrival is unchanged (35.81 s, 59.81 s, 39.80 s) but for sinusoid (1.64 s,
+    # 1.62 before). Least clearance 0.221 m (0.264), 0.231 (0.224), 0.861 (0.861); least
+    # separation 1.638 m (1.042), 3.307 (3.291), 1.038 (1.038), 0.883 (0.883).
+    ("default", "filter"): "e1d38ece1cd31fc1",
     ("default", "paper"): "06f8ec839660494e",
-    ("obstacles", "filter"): "cdce035894674de1",
+    ("obstacles", "filter"): "4f74cd8cccc462b4",
     ("obstacles", "paper"): "dd00ce90ae2c1a6a",
-    ("passage", "filter"): "a5f9af6504f16f9a",
+    ("passage", "filter"): "7eeeea864611ae08",
     ("passage", "paper"): "9abb03727e611003",
     # 2026-12-07: a unicycle's limits are rows of its filter at its heading (world/limits.py),
     # no longer a disc whatever the heading: the GRITSbots drive at up to 0.1997 m/s (0.1345
@@ -149,7 +155,7 @@ DIGESTS = {
     # caps stop scaling such commands by an ulp. The positions part from tick 348 by at most
     # 5.2e-15 m; the run arrives at 42.24 s as before, guard margin +0.01105 m.
     ("robotarium", "filter"): "4582abc347d0ab57",
-    ("sinusoid", "filter"): "0a16c65f361a36b6",
+    ("sinusoid", "filter"): "fbf2b103aca794ee",
     ("sinusoid", "paper"): "0a16c65f361a36b6",
 }
 

@@ -13,6 +13,7 @@ import click
 from shoal.bus.runtime import warn
 from shoal.bus.types import SafetyLayer
 from shoal.tools.extras import require
+from shoal.world.assumptions import unlimited
 from shoal.world.errors import ScenarioError, ScenarioWarning
 from shoal.world.layers import make_layer
 from shoal.world.loader import load_scenario
@@ -37,6 +38,9 @@ def load_for_cli(name_or_path: str) -> Scenario:
             raise click.ClickException(f"scenario {name_or_path}: {exc}") from None
     for w in caught:
         click.echo(f"warning: {w.message}", err=True)
+    cost = unlimited(scenario)
+    if cost is not None:
+        click.echo(f"warning: {cost}", err=True)
     return scenario
 
 
