@@ -392,6 +392,10 @@ class World(Declarations):
         elif arrival.kind == ArrivalKind.DOWN:
             self.up.discard(arrival.key)
             if i is not None and i in self.alive and tick is not None:
+                # Held from this tick while the token is looked at again: a router that died
+                # takes every token down at once, and the guard stops the robots then; the
+                # commands the world still had must not follow its zero.
+                self.latest.pop(i, None)
                 if self.bus.present(arrival.key):
                     self._event(tick, 2, i, f"agent {i}'s token went down but it still answers; "
                                 "kept")  # fmt: skip

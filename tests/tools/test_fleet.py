@@ -27,6 +27,7 @@ from fleets import robots_process
 from shoal.tools.campaign.fields import FieldOptions, make_field
 from shoal.tools.procs.launch import free_port
 from shoal.tools.ros2 import rmw
+from shoal.tools.ros2.bridge import zero
 from shoal.tools.ros2.fleet import Driver, Limits, Pose, drivers_for
 from shoal.tools.ros2.node import RosSession
 from shoal.world.loader import load_scenario
@@ -269,6 +270,101 @@ def test_robots_stop_within_a_second_when_the_world_is_killed(router: str, tmp_p
     finally:
         if proc is not None and proc.poll() is None:
             proc.kill()
+        fleet.send_signal(signal.SIGINT)
+        fleet.communicate(timeout=20.0)
+
+
+def _moving_after_a_zero(told: dict[int, list[tuple[float, bytes]]], since: float) -> int:
+    """How many non-zero Twists each robot heard after the first zero it heard after ``since``,
+    summed over the robots."""
+    out = 0
+    for heard in told.values():
+        stopped = False
+        for t, payload in heard:
+            if t <= since:
+                continue
+            if payload == zero():
+                stopped = True
+            elif stopped:
+                out += 1
+    return out
+
+
+@pytest.mark.integration
+def test_the_guards_zero_is_the_last_command_when_the_router_is_killed(
+    router: str, tmp_path: Path
+) -> None:
+    """The router dies under a realtime run of ROS 2 robots: the guard sees the world's token
+    vanish and stops every robot, while the world, cut off from its agents but alive, may
+    still send the commands it had for a few ticks. No robot hears a non-zero Twist after a
+    zero, and the last one each hears is a zero: the world holds an agent's robot the moment
+    its token goes down (world/process.py), and the guard holds its zero for a second
+    (tools/commands/guard.py). Before: 5 non-zero Twists after the zeros in 1 of 2 runs."""
+    field = make_field(load_scenario("obstacles"), 3, options=FieldOptions(length=8.0, tail=2.0))
+    ros_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    names = [f"/lab/tb_{c}" for c in "abcde"]
+    section = {"namespaces": names, "domain": 4, "connect": [ros_endpoint]}
+    path = tmp_path / "field.yaml"
+    path.write_text(field.source + yaml.safe_dump({"robots": section}), encoding="utf-8")
+    fleet = subprocess.Popen(
+        [sys.executable, "-m", "shoal.tools", "robots", str(path), "--listen", ros_endpoint,
+         "--cmd-timeout", "60"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    run = unique("lastzero")
+    proc = None
+    told: dict[int, list[tuple[float, bytes]]] = {}
+    lock = threading.Condition()
+
+    def listener(i: int) -> Any:
+        def heard(payload: bytes, attachment: bytes | None) -> None:
+            with lock:
+                told.setdefault(i, []).append((time.monotonic(), payload))
+                lock.notify_all()
+
+        return heard
+
+    try:
+        assert fleet.stdout is not None and fleet.stdout.readline().startswith("ready robots 5")
+        odom = Odometry()
+        with client(ros_endpoint) as session:
+            node = RosSession(session, domain=4).node("test_watch")
+            for i, name in enumerate(names, start=1):
+                node.subscriber(f"{name}/odom", rmw.ODOMETRY, odom.listener(i))
+                node.subscriber(f"{name}/cmd_vel", rmw.TWIST, listener(i))
+            proc = shoal_run(path, router, tmp_path / "run.mcap", "--clock", "realtime",
+                             "--robots", "ros2", "--json", "--no-foxglove", run=run)  # fmt: skip
+
+            def moving(o: Odometry) -> bool:
+                return any(o.heard.get(i) and o.heard[i][-1][1] != 0.0 for i in range(1, 6))
+
+            odom.until(moving, timeout=90.0)
+            routers = [p for p in processes_mentioning(router) if " router " in _cmdline(p)]
+            assert len(routers) == 1, routers
+            os.kill(routers[0], signal.SIGKILL)
+            killed = time.monotonic()
+
+            def quiet() -> bool:  # nobody has said anything to any robot for 2 s
+                last = max(t for heard in told.values() for t, _ in heard)
+                return time.monotonic() - last > 2.0 and last > killed
+
+            with lock:
+                while not quiet():  # re-checked at least every 0.1 s: quiet is the lack of news
+                    assert time.monotonic() < killed + 60.0, "the robots were told things for 60 s"
+                    lock.wait(timeout=0.1)
+                lasts = {i: told[i][-1][1] for i in range(1, 6)}
+                after = sum(1 for i in told for t, _ in told[i] if t > killed)
+                late = _moving_after_a_zero(told, killed)
+            node.close()
+        assert all(last == zero() for last in lasts.values()), lasts
+        assert late == 0, f"{late} non-zero Twists after a robot was told to stop"
+        print(f"\nrouter SIGKILLed: {after} Twists after it, {late} of them non-zero after a "
+              "zero; the last one a zero for every robot")  # fmt: skip
+    finally:
+        if proc is not None:  # its router gone, it may have ended by itself
+            if proc.poll() is None:
+                proc.kill()
+            proc.communicate(timeout=30.0)
         fleet.send_signal(signal.SIGINT)
         fleet.communicate(timeout=20.0)
 

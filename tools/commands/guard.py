@@ -9,6 +9,7 @@ when it is itself asked to stop.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import click
@@ -51,6 +52,7 @@ def guard(**params: Any) -> None:
         inbox = Inbox()
         held = watch_presence(session, keys.alive_world, inbox)
         announce_ready(f"guard {names[0]}…{names[-1]}")
+        gone = False
         try:
             seen = False
             while True:
@@ -58,11 +60,32 @@ def guard(**params: Any) -> None:
                 if arrival.kind == ArrivalKind.UP:
                     seen = True
                 elif seen and not still_present(session, keys.alive_world):
+                    gone = True
                     break  # down, and a second look agrees
         finally:
             halt = zero()
             for stop in stops:
                 stop.put(halt)
             warn(f"guard: the world of run {spec.run_id} is gone; {len(stops)} robots stopped")
+            if gone:  # a world cut from its router may still send a tick or two: outlast it
+                _hold(stops, halt)
             held.undeclare()
             node.close()
+
+
+# s: after the world's token vanishes, the guard keeps sending zero Twists this long. A world
+# that lost its router (not its process) holds its robots once its agents' commands are
+# STALE_AFTER ticks old, and may send the commands it had until then: 5 ticks, 50 ms at 100 Hz.
+# This outlasts that for ticks up to 0.2 s, so the guard's zero is the last command a robot gets.
+HOLD = 1.0
+HOLD_PERIOD = 0.02  # s between the held zeros
+
+
+def _hold(stops: list[Any], halt: bytes) -> None:
+    """Send ``halt`` on every publisher of ``stops`` every :data:`HOLD_PERIOD` s for
+    :data:`HOLD` s."""
+    end = time.monotonic() + HOLD
+    while time.monotonic() < end:
+        time.sleep(HOLD_PERIOD)  # a pace, not a wait for anything
+        for stop in stops:
+            stop.put(halt)
