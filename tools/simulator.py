@@ -16,7 +16,7 @@ from shoal.agent.controller import Controller
 from shoal.bus.messages import AgentState, TickRecord
 from shoal.bus.types import SafetyLayer
 from shoal.world.layers import make_layer
-from shoal.world.plant import KINEMATICS, simulated
+from shoal.world.plant import KINEMATICS, Kinematics, bodily, simulated
 from shoal.world.reach_layer import reach_inputs
 from shoal.world.scenario import Scenario
 from shoal.world.step import Report, Step
@@ -45,7 +45,10 @@ def reference_step(
 def _commands(scenario: Scenario, step: Step) -> Iterator[tuple[int, dict[int, Report]]]:
     """Every tick's number and every agent's report for it, from its controller (each tick's
     sensing from ``step``, which the caller then acts on)."""
-    controllers = [Controller(scenario.agent_config(i + 1)) for i in range(scenario.n)]
+    configs = [scenario.agent_config(i + 1) for i in range(scenario.n)]
+    if not isinstance(step.plant, Kinematics):  # bodies: as the world configures its agents
+        configs = [bodily(c) for c in configs]
+    controllers = [Controller(c) for c in configs]
     memories = [c.start() for c in controllers]
     for k in range(scenario.steps):
         sensings = step.sense(k)

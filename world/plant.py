@@ -12,11 +12,11 @@ Ctrl-C and when the leader is lost, it stops every robot.
 from __future__ import annotations
 
 import importlib.util
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 from shoal.bus.messages import PlantRecord
-from shoal.bus.types import Vector
+from shoal.bus.types import AgentConfig, Vector, Waypoints
 from shoal.geometry.vectors import FloatArray
 from shoal.world.kinematics import move
 from shoal.world.scenario import Scenario
@@ -77,6 +77,19 @@ class Plant(Protocol):
     def record(self, tick: int) -> PlantRecord | None:
         """What the plant's bodies did over tick ``tick`` (just sent), for the log: a physics
         plant's bodies, motors and contacts; None for the others."""
+
+
+def bodily(config: AgentConfig) -> AgentConfig:
+    """Agent ``config`` for a run whose plant moves bodies (robots, or a physics engine): its
+    leader counts a waypoint as visited within a tick's travel at the path's speed, the finest
+    that commands held for a tick place a body. Within 1 nm, as the kinematics place it, late
+    poses made the leader overshoot its first corner and be sent back for the rest of the run
+    (tests/agent/test_leader.py), and a base with mass circles it for good: commands it can
+    follow at its braking overshoot by v²/2a and come back (docs/physics.md)."""
+    path = config.path
+    if not isinstance(path, Waypoints):
+        return config
+    return replace(config, path=replace(path, reach=path.speed * config.dt))
 
 
 class Kinematics:

@@ -15,7 +15,7 @@ only reference to the path: the world holds every agent still and ends the run (
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -27,12 +27,12 @@ from shoal.bus.messages import AgentState, Command, Event, RobotsRecord
 from shoal.bus.report import REPORT_TIMEOUT_S, summary_entries
 from shoal.bus.runtime import Arrival, ArrivalKind, Inbox, warn
 from shoal.bus.seam import Answer, Bus, Declarations
-from shoal.bus.types import STALE_AFTER, AgentConfig, Clock, SafetyLayer, Waypoints
+from shoal.bus.types import STALE_AFTER, AgentConfig, Clock, SafetyLayer
 from shoal.geometry.vectors import FloatArray
 from shoal.world.layers import make_layer
 from shoal.world.metrics import summarize
 from shoal.world.onboard import Link, OnboardLayers, epoch_ticks
-from shoal.world.plant import KINEMATICS, Kinematics, Observed, Plant, PlantError
+from shoal.world.plant import KINEMATICS, Kinematics, Observed, Plant, PlantError, bodily
 from shoal.world.reach_layer import reach_inputs
 from shoal.world.scenario import Scenario
 from shoal.world.start import misplaced
@@ -134,16 +134,10 @@ class World(Declarations):
         return SafetyLayer.of(self.options.layer, self.options.clock)
 
     def _config(self, i: int) -> AgentConfig:
-        """Agent ``i``'s configuration. Driving robots, the leader counts a waypoint as visited
-        within a tick's travel at the path's speed, the finest that commands held for a tick
-        place a robot. Within 1 nm, as simulated, late poses made the leader overshoot its first
-        corner and be sent back for the rest of the run (tests/agent/test_leader.py)."""
+        """Agent ``i``'s configuration; for bodies (robots, a physics plant) world/plant.py's
+        :func:`bodily` one."""
         config = self.scenario.agent_config(i, self.options.clock)
-        path = config.path
-        if not self.robots or not isinstance(path, Waypoints):
-            return config
-        reach = path.speed * config.dt
-        return replace(config, path=replace(path, reach=reach))
+        return config if self.options.plant is None else bodily(config)
 
     # -- start ----------------------------------------------------------------------------------
 
