@@ -213,15 +213,11 @@ def _cmdline(pid: int) -> str:
         return ""
 
 
-@pytest.mark.integration
-def test_robots_stop_within_a_second_when_the_world_is_killed(router: str, tmp_path: Path) -> None:
-    """``shoal run --robots ros2`` drives five simulated robots whose own driver would keep a
-    command for 60 s; the world is SIGKILLed while they move, so it sends nothing. The guard
-    `shoal run` started beside it sends every robot a zero Twist (when the world's token
-    vanishes, or when `shoal run`, seeing the world gone, stops it, whichever is first): all
-    report standing within 1 s (measured, printed: 16–34 ms on an unloaded machine).
-    The robots are named by the scenario's ``robots:`` section alone (namespaces, domain,
-    router): the world, the guard and ``shoal robots`` all find them from it."""
+def _patient_fleet(tmp_path: Path) -> tuple[Path, list[str], str, subprocess.Popen[str]]:
+    """Five ROS 2 robots of ``shoal robots`` on a campaign field of ``obstacles``, whose own
+    driver keeps a command for 60 s (only shoal can stop them), on a router of their own: the
+    field's file (with its ``robots:`` section), their namespaces, that router's endpoint and
+    the fleet's process."""
     field = make_field(load_scenario("obstacles"), 3, options=FieldOptions(length=8.0, tail=2.0))
     ros_endpoint = f"tcp/127.0.0.1:{free_port()}"
     names = [f"/lab/tb_{c}" for c in "abcde"]
@@ -233,6 +229,19 @@ def test_robots_stop_within_a_second_when_the_world_is_killed(router: str, tmp_p
          "--cmd-timeout", "60"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
+    return path, names, ros_endpoint, fleet
+
+
+@pytest.mark.integration
+def test_robots_stop_within_a_second_when_the_world_is_killed(router: str, tmp_path: Path) -> None:
+    """``shoal run --robots ros2`` drives five simulated robots whose own driver would keep a
+    command for 60 s; the world is SIGKILLed while they move, so it sends nothing. The guard
+    `shoal run` started beside it sends every robot a zero Twist (when the world's token
+    vanishes, or when `shoal run`, seeing the world gone, stops it, whichever is first): all
+    report standing within 1 s (measured, printed: 16–34 ms on an unloaded machine).
+    The robots are named by the scenario's ``robots:`` section alone (namespaces, domain,
+    router): the world, the guard and ``shoal robots`` all find them from it."""
+    path, names, ros_endpoint, fleet = _patient_fleet(tmp_path)
     run = unique("guard")
     proc = None
     try:
@@ -300,17 +309,7 @@ def test_the_guards_zero_is_the_last_command_when_the_router_is_killed(
     zero, and the last one each hears is a zero: the world holds an agent's robot the moment
     its token goes down (world/process.py), and the guard holds its zero for a second
     (tools/commands/guard.py). Before: 5 non-zero Twists after the zeros in 1 of 2 runs."""
-    field = make_field(load_scenario("obstacles"), 3, options=FieldOptions(length=8.0, tail=2.0))
-    ros_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    names = [f"/lab/tb_{c}" for c in "abcde"]
-    section = {"namespaces": names, "domain": 4, "connect": [ros_endpoint]}
-    path = tmp_path / "field.yaml"
-    path.write_text(field.source + yaml.safe_dump({"robots": section}), encoding="utf-8")
-    fleet = subprocess.Popen(
-        [sys.executable, "-m", "shoal.tools", "robots", str(path), "--listen", ros_endpoint,
-         "--cmd-timeout", "60"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+    path, names, ros_endpoint, fleet = _patient_fleet(tmp_path)
     run = unique("lastzero")
     proc = None
     told: dict[int, list[tuple[float, bytes]]] = {}

@@ -367,14 +367,8 @@ def _check_robots(c: Campaign, params: Mapping[str, Any]) -> None:
     if plant == KINEMATICS:
         check_plant(c.base, plant, robots.dynamics)  # --dynamics without --plant mujoco
         return
-    bare = dataclasses.replace(robots, plant=KINEMATICS, dynamics=None, latency=None)
-    try:
-        if c.hard:
-            sample = hard_field(c.seed, 2, unicycles=bare.kinematics == "unicycle")
-        else:
-            sample = make_field(c.base, c.seed, "inside", bare)
-    except FieldError:
-        sample = c.base  # the campaign reports the field it cannot draw; check the base's agents
+    # The campaign reports a field it cannot draw; then the base's agents are checked.
+    sample = _sample(c, robots) or c.base
     if robots.dynamics is not None:
         _fits(sample, robots.dynamics)
     check_plant(sample, plant, robots.dynamics)
@@ -387,16 +381,21 @@ def _check_layer(c: Campaign) -> None:
     if opts.layer == SafetyLayer.REFEREE:
         return
     for safety in c.modes:
-        bare = dataclasses.replace(opts, plant=KINEMATICS, dynamics=None, latency=None,
-                                   safety=safety)  # fmt: skip
-        try:
-            if c.hard:
-                sample = hard_field(c.seed, 2, unicycles=bare.kinematics == "unicycle")
-            else:
-                sample = make_field(c.base, c.seed, "inside", bare)
-        except FieldError:
-            continue  # the campaign reports the field it cannot draw
-        check_layer(sample, opts.layer, None)
+        sample = _sample(c, dataclasses.replace(opts, safety=safety))
+        if sample is not None:  # else the campaign reports the field it cannot draw
+            check_layer(sample, opts.layer, None)
+
+
+def _sample(c: Campaign, opts: FieldOptions) -> Scenario | None:
+    """The campaign's first field as ``opts`` draw it, without robots with mass (every field's
+    agents are of one kind); None when it cannot be drawn."""
+    bare = dataclasses.replace(opts, plant=KINEMATICS, dynamics=None, latency=None)
+    try:
+        if c.hard:
+            return hard_field(c.seed, 2, unicycles=bare.kinematics == "unicycle")
+        return make_field(c.base, c.seed, "inside", bare)
+    except FieldError:
+        return None
 
 
 def _fits(sample: Scenario, name: str) -> None:
