@@ -108,6 +108,9 @@ def test_the_summary_shows_the_reach_row_only_for_the_reach_layer(tmp_path: Path
     assert "3 robot-ticks told to stop" in shown and "41 agent-ticks slowed" in shown
     assert "largest margin 0.250 m" in shown
     assert "told to stop" not in render_summary({**base, "safety_layer": "referee"})
+    engine = {**reach, "plant": "mujoco"}
+    assert "the reach layer's theorem for robots with mass" in render_summary(engine)
+    assert "robots that move as commanded" in render_summary({**engine, "safety_layer": "referee"})
 
 
 def test_verify_takes_the_layer_from_the_log() -> None:

@@ -216,6 +216,11 @@ def _margins(summary: dict[str, Any]) -> str:
     text += f"separation {summary['separation_margin']:+.4g} m"
     if summary.get("safety", "filter") != "filter":
         return f"{text} (no filter: no bound)"
+    if summary.get("plant") == "mujoco" and summary.get("safety_layer") == "reach":
+        return (
+            f"{text} (along the engine's motion; the reach layer's theorem for robots with "
+            f"mass: ≥ −{summary.get('contact_slack', 0.0):.1e} m while its bounds hold)"
+        )
     if summary.get("plant") == "mujoco":
         return (
             f"{text} (along the engine's motion; the filter's theorem is for robots that move "
