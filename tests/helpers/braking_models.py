@@ -27,17 +27,17 @@ SUBSTEPS = 20  # per tick
 class Fleet:
     """Point robots with mass in a field of standing obstacles (see the module docstring)."""
 
-    positions: FloatArray  # (n, 2) m, now
+    positions: FloatArray  # (n, dim) m, now
     dt: float
     latency: float
     accel: float
     lag: float
     max_age: float  # s: each tick's pose is up to this old
     rng: random.Random
-    velocities: FloatArray = field(init=False)  # (n, 2) m/s, now
+    velocities: FloatArray = field(init=False)  # (n, dim) m/s, now
     history: list[FloatArray] = field(init=False)  # positions at every substep so far
     speeds: list[FloatArray] = field(init=False)  # velocities at every substep so far
-    commands: list[FloatArray] = field(init=False)  # what each tick sent, (n, 2)
+    commands: list[FloatArray] = field(init=False)  # what each tick sent, (n, dim)
 
     def __post_init__(self) -> None:
         self.velocities = np.zeros_like(self.positions)
@@ -123,7 +123,7 @@ def least_margins(
 ) -> tuple[float, float]:
     """(least distance beyond every guard r + ρ, least distance beyond 2R between any pair), m,
     over every substep of ``history``."""
-    path = np.array(history)  # (steps, n, 2)
+    path = np.array(history)  # (steps, n, dim)
     to_obstacles = np.linalg.norm(path[:, :, None, :] - centres[None, None], axis=3) - radii
     guard = float((to_obstacles - rho).min()) if len(radii) else math.inf
     n = path.shape[1]

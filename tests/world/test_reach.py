@@ -34,6 +34,7 @@ SPEED = 2.0  # m/s: the robots' speed limit
 SLACK = 1e-9  # m
 CENTRES = np.array([[0.0, 0.0], [3.0, 1.0]])
 RADII = np.array([0.6, 0.4])
+CENTRES_3D = np.array([[0.0, 0.0, 0.0], [3.0, 1.0, 0.8]])  # spheres, for a 3-D field
 
 
 def _params() -> ControlParams:
@@ -155,17 +156,19 @@ def test_with_ideal_bounds_it_is_the_referee_bit_for_bit() -> None:
 # ---- robots with mass, against reference models ----------------------------------------------
 
 
-def _start(rng: random.Random, n: int) -> np.ndarray:
-    """n robots in a 6 m box, 2R + 0.3 m apart and 0.3 m beyond every guard."""
+def _start(rng: random.Random, n: int, centres: np.ndarray = CENTRES) -> np.ndarray:
+    """n robots in a 6 m box (2-D, or 3-D for 3-D ``centres``), 2R + 0.3 m apart and 0.3 m
+    beyond every guard."""
+    box = [(-2.5, 4.5), (-2.5, 3.0), (-1.5, 2.0)][: centres.shape[1]]
     while True:
-        pts = np.array([[rng.uniform(-2.5, 4.5), rng.uniform(-2.5, 3.0)] for _ in range(n)])
+        pts = np.array([[rng.uniform(lo, hi) for lo, hi in box] for _ in range(n)])
         gaps = [np.linalg.norm(pts[a] - pts[b]) for a in range(n) for b in range(a)]
-        guard = np.linalg.norm(pts[:, None] - CENTRES[None], axis=2) - RADII - RHO
+        guard = np.linalg.norm(pts[:, None] - centres[None], axis=2) - RADII - RHO
         if (not gaps or min(gaps) >= 2 * R + 0.3) and guard.min() >= 0.3:
             return pts
 
 
-def _nominal(poses: np.ndarray, k: int) -> np.ndarray:
+def _nominal(poses: np.ndarray, k: int, centres: np.ndarray = CENTRES) -> np.ndarray:
     """Odd robots drive at full speed at the nearest obstacle's centre, even ones at their
     nearest neighbour (every 40 ticks they swap)."""
     n = len(poses)
@@ -176,7 +179,7 @@ def _nominal(poses: np.ndarray, k: int) -> np.ndarray:
             others = [j for j in range(n) if j != i]
             target = poses[min(others, key=lambda j: np.linalg.norm(poses[j] - at))]
         else:
-            target = CENTRES[np.argmin(np.linalg.norm(CENTRES - at, axis=1) - RADII)]
+            target = centres[np.argmin(np.linalg.norm(centres - at, axis=1) - RADII)]
         way = target - at
         size = np.linalg.norm(way)
         out[i] = 0.0 if size == 0 else way / size * SPEED
@@ -192,6 +195,7 @@ class Case:
     lag: float
     age_substeps: int
     measured: bool
+    dim: int = 2
 
 
 def _fly(case: Case, told: Bounds | None = None, *, ignore_age: bool = False) -> tuple:
@@ -202,15 +206,17 @@ def _fly(case: Case, told: Bounds | None = None, *, ignore_age: bool = False) ->
     latency = case.latency_substeps * h
     truth = Bounds(latency=latency, braking=case.accel, lag=case.lag)
     age = case.age_substeps * h
-    fleet = Fleet(_start(rng, case.n), DT, latency, case.accel, case.lag, age, rng)
+    centres = CENTRES if case.dim == 2 else CENTRES_3D
+    fleet = Fleet(_start(rng, case.n, centres), DT, latency, case.accel, case.lag, age, rng)
     layer = Reach(_params(), DT, [told or truth] * case.n, float(RADII.max()))
     for k in range(150):
         seen, poses = fleet.observe(k, case.measured)
         if ignore_age:
             seen = dataclasses.replace(seen, ages=np.zeros(case.n))
-        commands = layer.act(k, sensings(k, poses, CENTRES, RADII), _nominal(poses, k), seen)
+        nominal = _nominal(poses, k, centres)
+        commands = layer.act(k, sensings(k, poses, centres, RADII), nominal, seen)
         fleet.advance(k, commands)
-    guard, pair = least_margins(fleet.history, CENTRES, RADII, RHO, 2 * R)
+    guard, pair = least_margins(fleet.history, centres, RADII, RHO, 2 * R)
     return guard, pair, layer
 
 
@@ -223,6 +229,7 @@ cases = st.builds(
     lag=st.sampled_from([0.0, 0.01, 0.04]),
     age_substeps=st.integers(0, 2 * SUBSTEPS),  # up to 2 ticks, 40 ms
     measured=st.booleans(),
+    dim=st.sampled_from([2, 3]),
 )
 
 
@@ -236,7 +243,9 @@ def test_robots_with_mass_keep_every_guard_and_2r(case: Case) -> None:
 
 
 # The mutants: the same layer, told less than the truth. Fixed cases where each term matters.
-HARD = [Case(seed, 3, SUBSTEPS, 2.0, 0.04, SUBSTEPS, False) for seed in range(6)]
+HARD = [
+    Case(seed, 3, SUBSTEPS, 2.0, 0.04, SUBSTEPS, False, dim) for seed in range(3) for dim in (2, 3)
+]
 
 
 def _breached(runs: list[tuple]) -> bool:
