@@ -275,10 +275,7 @@ class Engine:
         row = np.flatnonzero(self.wheeled == agent)
         if row.size:
             k = int(row[0])
-            left = (vx - wz * self.half_axle[k]) / self.rim[k]
-            right = (vx + wz * self.half_axle[k]) / self.rim[k]
-            scale = min(1.0, self.top_speed[k] / max(abs(left), abs(right), 1e-300))
-            out[self.left[k]], out[self.right[k]] = scale * left, scale * right
+            out[self.left[k]], out[self.right[k]] = self._wheel_speeds(vx, wz, k)
         else:
             yaw = self.body_poses()[agent, 2]
             c, s = np.cos(yaw), np.sin(yaw)
@@ -332,12 +329,18 @@ class Engine:
             assert headings is not None
             w = self.wheeled
             v, turn = wheel_command(velocities[w], headings[w], self.lookaheads[w], self.dt)
-            left = (v - turn * self.half_axle) / self.rim
-            right = (v + turn * self.half_axle) / self.rim
-            fastest = np.maximum(np.maximum(np.abs(left), np.abs(right)), 1e-300)
-            scale = np.minimum(1.0, self.top_speed / fastest)  # both wheels: the same curvature
-            out[self.left], out[self.right] = scale * left, scale * right
+            out[self.left], out[self.right] = self._wheel_speeds(v, turn, slice(None))
         return out
+
+    def _wheel_speeds(self, v: Any, turn: Any, rows: Any) -> tuple[Any, Any]:
+        """The left and right wheel speeds (rad/s) of the wheeled robots ``rows`` (an index of
+        ``self.wheeled``) for speed ``v`` m/s and turn rate ``turn`` rad/s, both scaled down
+        together at the wheels' limit (the same curvature)."""
+        left = (v - turn * self.half_axle[rows]) / self.rim[rows]
+        right = (v + turn * self.half_axle[rows]) / self.rim[rows]
+        fastest = np.maximum(np.maximum(np.abs(left), np.abs(right)), 1e-300)
+        scale = np.minimum(1.0, self.top_speed[rows] / fastest)
+        return scale * left, scale * right
 
     def _command(self, setpoints: FloatArray, motors: Any = slice(None)) -> None:
         """New set-points for ``motors`` (an index of the actuators; default all of them),
