@@ -43,12 +43,18 @@ _SAME_TIME = 1e-12
 class Bounds:
     """What the robot's body keeps (module docstring): ``latency`` L s, ``braking`` a m/s²
     (inf: no limit), ``lag`` τ s (0: none), and the ``horizon`` s beyond which its pose is not
-    trusted. ``Bounds()`` is a robot that moves as commanded, the instant it is told."""
+    trusted; ``memoryless`` below. ``Bounds()`` is a robot that moves as commanded, the instant
+    it is told."""
 
     latency: float = 0.0
     braking: float = math.inf
     lag: float = 0.0
     horizon: float = HORIZON
+    # Whether the loop's error depends on itself alone (a P loop, an acceleration limit), so
+    # that the law above holds from any instant and a measured velocity can restart the
+    # envelope. A PI loop's integral remembers: its error crosses zero and comes back (the
+    # physics plant's, after a step), and only the bound from each command's jump holds.
+    memoryless: bool = False
 
     @staticmethod
     def of(dynamics: Dynamics | None) -> Bounds:
@@ -155,7 +161,8 @@ class Track:
     ) -> Start | None:
         """Where the step of tick ``k`` starts, from the robot's ``pose`` ``age`` s old at k·dt
         (every command up to tick k − 1 recorded) and, if measured with it, its ``velocity``
-        then (the envelope from then on starts at its exact tracking error); None when the pose
+        then (for a memoryless loop the envelope from then on starts at its exact tracking
+        error); None when the pose
         is older than the horizon, or from before the oldest command kept."""
         b, dt = self.bounds, self.dt
         t_pose, t_start = k * dt - age, k * dt + b.latency
@@ -172,7 +179,7 @@ class Track:
         pieces = self.sent
         e = math.nan  # the envelope at the start of the current piece of the window
         before: Vector = ()
-        if velocity is not None:  # its exact tracking error at t_pose bounds it from then on
+        if velocity is not None and b.memoryless:  # the exact error then bounds it from then on
             e, before = self._measured(t_pose, velocity)
         # u_j is in force over [j·dt + L, next command's j'·dt + L); the last one until t_start.
         for index, (j, u, jumped) in enumerate(pieces):

@@ -204,7 +204,7 @@ def _fly(case: Case, told: Bounds | None = None, *, ignore_age: bool = False) ->
     rng = random.Random(case.seed)
     h = DT / SUBSTEPS
     latency = case.latency_substeps * h
-    truth = Bounds(latency=latency, braking=case.accel, lag=case.lag)
+    truth = Bounds(latency=latency, braking=case.accel, lag=case.lag, memoryless=True)
     age = case.age_substeps * h
     centres = CENTRES if case.dim == 2 else CENTRES_3D
     fleet = Fleet(_start(rng, case.n, centres), DT, latency, case.accel, case.lag, age, rng)
