@@ -3,7 +3,8 @@ not the layer's own arithmetic — a point whose velocity loop is simulated in f
 
 A robot told u_j at tick j acts on it ``latency`` s later; its velocity w then follows the
 command in force c through a first-order loop of time constant ``lag`` s whose acceleration is
-clipped at ``accel`` m/s² (``lag`` 0: it accelerates at ``accel`` straight at c). Its pose
+clipped at ``accel`` m/s² (``lag`` 0: it accelerates at ``accel`` straight at c), or, with
+``integral``, through a PI loop of time constant ``lag`` tuned as the physics plant's. Its pose
 reaches its layer ``age`` s late, drawn afresh each tick up to a bound. Positions are kept at
 every substep, so a breach between ticks is seen.
 """
@@ -34,6 +35,7 @@ class Fleet:
     lag: float
     max_age: float  # s: each tick's pose is up to this old
     rng: random.Random
+    integral: bool = False  # a PI loop (kp = 2/lag, ki = 1/lag² per unit mass), as the engine's
     velocities: FloatArray = field(init=False)  # (n, dim) m/s, now
     history: list[FloatArray] = field(init=False)  # positions at every substep so far
     speeds: list[FloatArray] = field(init=False)  # velocities at every substep so far
@@ -41,6 +43,7 @@ class Fleet:
 
     def __post_init__(self) -> None:
         self.velocities = np.zeros_like(self.positions)
+        self.memory = np.zeros_like(self.positions)  # the PI loop's integral of the error
         self.history = [self.positions.copy()]
         self.speeds = [self.velocities.copy()]
         self.commands = []
@@ -76,7 +79,14 @@ class Fleet:
             c = self._in_force(t + 1e-12)
             error = c - self.velocities
             size = np.linalg.norm(error, axis=1, keepdims=True)
-            if self.lag == 0.0:  # at a straight at c until it is reached, then at c
+            if self.integral:  # a PI loop, its force's norm clipped, no integration then
+                raw = error * (2.0 / self.lag) + self.memory / (self.lag * self.lag)
+                norm = np.linalg.norm(raw, axis=1, keepdims=True)
+                acc = raw * np.minimum(1.0, self.accel / np.maximum(norm, 1e-300))
+                self.memory = self.memory + np.where(norm > self.accel, 0.0, error * h)
+                self.positions = self.positions + self.velocities * h + acc * (h * h / 2.0)
+                self.velocities = self.velocities + acc * h
+            elif self.lag == 0.0:  # at a straight at c until it is reached, then at c
                 unit = error / np.where(size > 0.0, size, 1.0)
                 reach = np.minimum(size / self.accel, h)  # s of the substep spent accelerating
                 acc = unit * self.accel
