@@ -38,6 +38,10 @@ _BISECTIONS = 40  # the braking cap to 2^-40 of the nominal's speed
 # m: a pair pressed on its plane, or a robot on its guard, may sit this far inside by rounding
 # (the filter's rows keep "no deeper than now" there); standing still still fits.
 _ROUNDING = 1e-9
+# A command follows its nominal by at most this fraction of the robot's braking over a tick: the
+# envelope decays at the braking itself, so a command that changes at half of it leaves the
+# envelope shrinking while it follows a turning nominal (at the whole braking it never did).
+SHAPING = 0.5
 
 
 class Reach:
@@ -131,7 +135,8 @@ class Reach:
         dt = self.dt
         if not _fits(track.margin(start, 0.0), 0.0, budget, horizon, dt):
             return None
-        nominal = _shaped(tuple(nominal_row.tolist()), start.before, track.bounds.braking * dt)
+        follow = SHAPING * track.bounds.braking * dt  # m/s a command may change by in a tick
+        nominal = _shaped(tuple(nominal_row.tolist()), start.before, follow)
         speed = math.hypot(*nominal)
         fastest = min(speed, p.speed_limit)
         way = tuple([x / speed for x in nominal]) if speed > 0.0 else nominal
@@ -145,6 +150,13 @@ class Reach:
         moved = dataclasses.replace(
             sensing, position=at, agent_ids=tuple(ids), agent_positions=tuple(others)
         )
+
+        def fits_margin(u: Vector, m: float) -> bool:  # the step u needs no more than m
+            return track.margin(start, math.hypot(*u), math.dist(u, start.before)) <= m
+
+        def certified(f: SafetyFilter, shifts: Sequence[float], u: Vector, m: float) -> bool:
+            return not f(u, moved, shifts=shifts).active and fits_margin(u, m)
+
         # First the nominal's own way (a robot going on as it goes sheds only its own speed);
         # if the filter turned it further than that margin allows, any way at all.
         for margin in (ahead, anyway):
@@ -154,18 +166,32 @@ class Reach:
             base = self.filters[i]
             # The speed the margin was taken for caps the step: the filter never lengthens a
             # nominal, but with a person within reach it may flee at its speed limit.
+            # Guards are kept at the margin of the nominal's speed, not only the step's: a
+            # robot that came as near as its slowed step allows could then only creep along
+            # the guard (any faster step needs a stop it has no room for); kept there, it can
+            # slide along at that speed. Rows built "no deeper than now": standing still fits.
             f = base if m == 0.0 and not slowed else dataclasses.replace(
-                base, margin=rho + m, speed_limit=v
+                base, margin=rho + max(m, margin(fastest)), speed_limit=v
             )  # fmt: skip
             shifts = [m - offset for offset in offsets] if m != 0.0 or any(offsets) else ()
             u = f(nominal, moved, shifts=shifts).velocity
-            if (
-                margin is anyway
-                or track.margin(start, math.hypot(*u), math.dist(u, start.before)) <= m
-            ):
+            if margin is anyway or fits_margin(u, m):
+                break
+            # The filter turned it: the same step, shorter, may still be within the margin (it
+            # meets the rows wherever they hold 0; the filter leaving it unchanged says so).
+            shorter = next((c for c in _shortened(u) if certified(f, shifts, c, m)), None)
+            if shorter is not None:
+                u = shorter
                 break
         self.slowed += slowed
         self.largest_margin = max(self.largest_margin, m)
+        # As smooth as it may be: the step changed by at most the robot's braking over a tick
+        # where that step is feasible too (the filter leaves it unchanged: every row met, within
+        # the cap) and needs no more margin. A projection that turns the command about at every
+        # tick otherwise piles jump upon jump into the envelope, and the margins grow with it.
+        smooth = _shaped(u, start.before, follow)
+        if smooth != u and certified(f, shifts, smooth, m):
+            return smooth
         return u
 
     def report(self) -> dict[str, Any]:
@@ -232,3 +258,8 @@ def _shaped(nominal: Vector, before: Vector, most: float) -> Vector:
         return nominal
     k = most / change
     return tuple([b + (x - b) * k for x, b in zip(nominal, before, strict=True)])
+
+
+def _shortened(u: Vector) -> list[Vector]:
+    """``u`` scaled by 0.9, 0.8, … 0.1: the same way, slower."""
+    return [tuple([x * (k / 10.0) for x in u]) for k in range(9, 0, -1)]

@@ -24,7 +24,7 @@ from shoal.tools.simulator import run
 from shoal.world.loader import load_scenario
 from shoal.world.plant import Observed
 from shoal.world.reach import Bounds, Track
-from shoal.world.reach_layer import Reach
+from shoal.world.reach_layer import SHAPING, Reach
 from tests.helpers.braking_models import SUBSTEPS, Fleet, least_margins, sensings
 
 DT = 0.02
@@ -111,15 +111,15 @@ def test_a_pose_older_than_the_horizon_brakes_the_robot() -> None:
 
 def test_a_nominal_that_turns_about_every_tick_is_followed_at_the_robots_braking() -> None:
     """A sign law's nominal flips at every tick; a base that brakes at 2 m/s² is asked to
-    change its velocity by at most 2·dt per tick, so its envelope (and every margin) stays
-    small instead of growing with each flip."""
+    change its velocity by at most half of 2 m/s² over a tick, so its envelope (and every
+    margin) stays small instead of growing with each flip."""
     layer = Reach(_params(), DT, [Bounds(braking=2.0, lag=0.02)], 0.6)
     poses = np.array([[10.0, 10.0]])
     before = np.zeros((1, 2))
     for k in range(50):
         nominal = np.array([[SPEED if k % 2 else -SPEED, 0.5]])
         out = layer.act(k, sensings(k, poses, CENTRES, RADII), nominal, None)
-        assert np.linalg.norm(out - before) <= 2.0 * DT * (1 + 1e-12)
+        assert np.linalg.norm(out - before) <= SHAPING * 2.0 * DT * (1 + 1e-12)
         before = out
     # m: no more than its stop from the 0.5 m/s it keeps (v²/2a = 0.0625 m) and a little lag;
     # unshaped, each flip's 4 m/s jump would be in the envelope: (4 m/s)²/2a alone is 4 m
@@ -306,7 +306,10 @@ def test_a_pi_loop_is_certified_from_its_commands_not_from_a_measured_velocity()
     """A PI loop's error crosses zero and comes back: restarted from a small measured error,
     the envelope is no bound, and the certificate breaks (standing no longer fits). From the
     commands alone it holds."""
-    for seed in range(3):
+    # Commands that change by half the braking per tick keep a PI loop's errors small; in 3 of
+    # 24 seeds scanned the restart still breaks the certificate: these.
+    seeds = (5, 18, 23)
+    for seed in (0, 1, *seeds):
         guard, pair, braked = _fly_pi(seed, memoryless=False)
         assert guard >= -SLACK and pair >= -SLACK and braked == 0
-    assert any(_fly_pi(seed, memoryless=True)[2] > 0 for seed in range(3))
+    assert all(_fly_pi(seed, memoryless=True)[2] > 0 for seed in seeds)
