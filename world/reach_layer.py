@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -42,6 +43,20 @@ _ROUNDING = 1e-9
 # envelope decays at the braking itself, so a command that changes at half of it leaves the
 # envelope shrinking while it follows a turning nominal (at the whole braking it never did).
 SHAPING = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class Room:
+    """What a robot's step has room for this tick: ``budget`` m, the least of every guard's
+    clearance and its share of every pair's plane (from its predicted start); ``horizon`` m,
+    what an obstacle it does not sense leaves; ``sensing``, its sensing moved to the predicted
+    start, with every other robot's predicted start; ``offsets`` m, per other robot, how far
+    the pair's plane lies off their midpoint towards the one that needs less margin."""
+
+    budget: float
+    horizon: float
+    sensing: Sensing
+    offsets: tuple[float, ...]
 
 
 class Reach:
@@ -97,6 +112,44 @@ class Reach:
             out[i] = step
         return out
 
+    def _room(
+        self,
+        i: int,
+        start: Start,
+        m0: float,
+        sensing: Sensing,
+        starts: Sequence[Start | None],
+        standing: Sequence[float | None],
+    ) -> Room | None:
+        """Robot ``i``'s room this tick (:class:`Room`); None when another robot has no start
+        (nobody knows where it goes)."""
+        p = self.params
+        rho, half, at = p.safety_margin, p.separation / 2.0, start.position
+        clearance = math.inf  # m: to the nearest guard, from the predicted start
+        for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii, strict=True):
+            clearance = min(clearance, math.dist(at, c) - r - rho)
+        # Every other robot, not only those it senses: this layer is the world's, which knows
+        # where each is (the rows of those farther than a step and both margins are dropped).
+        ids: list[int] = []
+        others: list[Vector] = []
+        offsets: list[float] = []
+        gap = math.inf
+        for j, (other, mq) in enumerate(zip(starts, standing, strict=True), start=1):
+            if j == i + 1:
+                continue
+            if other is None or mq is None:
+                return None
+            slack = math.dist(at, other.position) - 2.0 * half - m0 - mq
+            gap = min(gap, m0 + slack / 2.0)
+            ids.append(j)
+            others.append(other.position)
+            offsets.append((m0 - mq) / 2.0)
+        moved = dataclasses.replace(
+            sensing, position=at, agent_ids=tuple(ids), agent_positions=tuple(others)
+        )
+        horizon = p.sensing_radius - self.largest_obstacle - rho - start.drift
+        return Room(min(clearance, gap), horizon, moved, tuple(offsets))
+
     def _step(
         self,
         i: int,
@@ -108,30 +161,13 @@ class Reach:
         standing: Sequence[float | None],
     ) -> tuple[float, ...] | None:
         """Robot ``i``'s certified step, or None: even standing does not fit (it brakes)."""
-        p = self.params
-        track, rho, half = self.tracks[i], p.safety_margin, p.separation / 2.0  # type: ignore[index]
-        at = start.position
-        clearance = math.inf  # m: to the nearest guard, from the predicted start
-        for c, r in zip(sensing.obstacle_centres, sensing.obstacle_radii, strict=True):
-            clearance = min(clearance, math.dist(at, c) - r - rho)
-        # Every other robot, not only those it senses: this layer is the world's, which knows
-        # where each is (the rows of those farther than a step and both margins are dropped).
-        ids: list[int] = []
-        others: list[tuple[float, ...]] = []
-        offsets: list[float] = []
-        gap = math.inf
-        for j, (other, mq) in enumerate(zip(starts, standing, strict=True), start=1):
-            if j == i + 1:
-                continue
-            if other is None or mq is None:
-                return None  # a robot that is not certified: nobody knows where it goes
-            slack = math.dist(at, other.position) - 2.0 * half - m0 - mq
-            gap = min(gap, m0 + slack / 2.0)
-            ids.append(j)
-            others.append(other.position)
-            offsets.append((m0 - mq) / 2.0)
-        horizon = p.sensing_radius - self.largest_obstacle - rho - start.drift
-        budget = min(clearance, gap)
+        room = self._room(i, start, m0, sensing, starts, standing)
+        if room is None:
+            return None
+        p, track = self.params, self.tracks[i]  # type: ignore[index]
+        rho, budget, horizon, moved, offsets = (
+            p.safety_margin, room.budget, room.horizon, room.sensing, room.offsets
+        )  # fmt: skip
         dt = self.dt
         if not _fits(track.margin(start, 0.0), 0.0, budget, horizon, dt):
             return None
@@ -146,10 +182,6 @@ class Reach:
 
         def anyway(v: float) -> float:  # the margin of any step of speed ≤ v
             return track.margin(start, v)
-
-        moved = dataclasses.replace(
-            sensing, position=at, agent_ids=tuple(ids), agent_positions=tuple(others)
-        )
 
         def fits_margin(u: Vector, m: float) -> bool:  # the step u needs no more than m
             return track.margin(start, math.hypot(*u), math.dist(u, start.before)) <= m
