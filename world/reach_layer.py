@@ -43,6 +43,7 @@ _ROUNDING = 1e-9
 # envelope decays at the braking itself, so a command that changes at half of it leaves the
 # envelope shrinking while it follows a turning nominal (at the whole braking it never did).
 SHAPING = 0.5
+_SAME_WAY = 0.999  # cos of the angle within which a slower command goes the same way
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,7 +173,11 @@ class Reach:
         if not _fits(track.margin(start, 0.0), 0.0, budget, horizon, dt):
             return None
         follow = SHAPING * track.bounds.braking * dt  # m/s a command may change by in a tick
-        nominal = _shaped(tuple(nominal_row.tolist()), start.before, follow)
+        wanted = tuple(nominal_row.tolist())
+        # Slowing down on its way, at the whole braking: a leader meeting its last point stops
+        # as short as the body can (at half of it, past its arrival tolerance).
+        slowing = _slowing(wanted, start.before)
+        nominal = _shaped(wanted, start.before, follow / SHAPING if slowing else follow)
         speed = math.hypot(*nominal)
         fastest = min(speed, p.speed_limit)
         way = tuple([x / speed for x in nominal]) if speed > 0.0 else nominal
@@ -290,6 +295,17 @@ def _shaped(nominal: Vector, before: Vector, most: float) -> Vector:
         return nominal
     k = most / change
     return tuple([b + (x - b) * k for x, b in zip(nominal, before, strict=True)])
+
+
+def _slowing(nominal: Vector, before: Vector) -> bool:
+    """Whether ``nominal`` only slows the command in force ``before`` down along its own way
+    (the same direction within 2.6°, slower)."""
+    speed, was = math.hypot(*nominal), math.hypot(*before)
+    if not speed < was:
+        return False
+    return speed == 0.0 or sum(a * b for a, b in zip(nominal, before, strict=True)) >= (
+        _SAME_WAY * speed * was
+    )
 
 
 def _shortened(u: Vector) -> list[Vector]:
