@@ -358,7 +358,7 @@ def test_kinematics_unicycle_turns_the_fields_into_unicycles_facing_anywhere() -
     base = load_scenario("obstacles")
     opts = FieldOptions(kinematics="unicycle")
     fields = [make_field(base, seed, "inside", opts) for seed in range(3)]
-    robot = unicycle_for(base)
+    robot = unicycle_for(base, base.control.speed_limit)  # obstacles carries 4 m/s
     assert all(f.unicycle == robot for f in fields)
     assert robot.lookahead == pytest.approx((0.2 - 0.05) / 2)
     headings = {tuple(f.initial_headings) for f in fields}
